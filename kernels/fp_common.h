@@ -1,0 +1,75 @@
+/* fogpipe kernels: shared helpers (view rays, layout of the view buffer).
+ * The layout matches fp_view_pack() in src/camera.c. */
+#ifndef FP_COMMON_H
+#define FP_COMMON_H
+
+#define FP_VIEW_ORIGIN 0
+#define FP_VIEW_M 3
+#define FP_VIEW_H 12
+#define FP_VIEW_NDC_SCALE 21
+#define FP_VIEW_NDC_OFFSET 23
+#define FP_VIEW_FAR 25
+#define FP_VIEW_DEPTH_KIND 26
+
+#define FP_DEPTH_PLANAR 0
+#define FP_DEPTH_RADIAL 1
+#define FP_DEPTH_INVERSE 2
+
+/* Sky: inf, NaN, negative, >= 1e10, 0 for inverse depth, beyond far
+ * (fp_view_is_sky in src/camera.c). */
+inline int fp_is_sky(__constant const float *view, float depth)
+{
+    if (isnan(depth) || depth < 0.0f)
+        return 1;
+    float z = depth;
+    if ((int)view[FP_VIEW_DEPTH_KIND] == FP_DEPTH_INVERSE) {
+        if (depth == 0.0f)
+            return 1;
+        z = 1.0f / depth;
+    }
+    return isinf(z) || z >= 1e10f || z >= view[FP_VIEW_FAR];
+}
+
+/* Unit direction (fog space) and length of the view ray of data-window
+ * pixel (x, y); len = INFINITY for sky.  As fp_view_ray() in C. */
+inline float3 fp_view_ray(__constant const float *view, int x, int y, float depth,
+                          float *len)
+{
+    __constant const float *h = view + FP_VIEW_H;
+    __constant const float *m = view + FP_VIEW_M;
+    float nx = ((float)x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
+    float ny = ((float)y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
+    float cw = h[6] * nx + h[7] * ny + h[8];
+    float cx = (h[0] * nx + h[1] * ny + h[2]) / cw;
+    float cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    float3 d = (float3)(m[0] * cx + m[1] * cy + m[2],
+                        m[3] * cx + m[4] * cy + m[5],
+                        m[6] * cx + m[7] * cy + m[8]);
+    float l = length(d);
+    int sky = fp_is_sky(view, depth);
+    float scale = 1.0f;
+    int kind = (int)view[FP_VIEW_DEPTH_KIND];
+    if (!sky) {
+        if (kind == FP_DEPTH_PLANAR)
+            scale = depth;
+        else if (kind == FP_DEPTH_RADIAL)
+            scale = depth / sqrt(cx * cx + cy * cy + 1.0f);
+        else
+            scale = 1.0f / depth;
+    }
+    *len = sky ? INFINITY : l * scale;
+    return d / l;
+}
+
+inline float3 fp_view_origin(__constant const float *view)
+{
+    return (float3)(view[0], view[1], view[2]);
+}
+
+/* (1 - exp(-x)) / x for x >= 0, without cancellation near 0. */
+inline float fp_expm1_ratio(float x)
+{
+    return x < 1e-3f ? 1.0f - x * (0.5f - x * (1.0f / 6.0f)) : -expm1(-x) / x;
+}
+
+#endif

@@ -1,0 +1,464 @@
+#include "camera.h"
+#include "fp.h"
+#include "options.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define CAM(f) offsetof(fp_params_t, camera.f)
+const fp_option_t fp_camera_options[] = {
+    { "camera-pos", 0, FP_OPT_VEC, CAM(pos), 3, 3, NULL, -INFINITY, INFINITY, NULL, "X,Y,Z",
+      "camera position in world space (overrides the header's worldToCamera)", NULL, 0 },
+    { "camera-target", 0, FP_OPT_VEC, CAM(target), 3, 3, NULL, -INFINITY, INFINITY, NULL, "X,Y,Z",
+      "point the camera looks at (world up kept up)", NULL, 0 },
+    { "camera-rot", 0, FP_OPT_VEC, CAM(rot), 3, 3, NULL, -360000, 360000, NULL, "RX,RY,RZ",
+      "camera rotation in degrees, Nuke's ZXY order, camera looking down -Z with +Y up "
+      "before rotation", NULL, 0 },
+    { "vfov", 0, FP_OPT_REAL, CAM(vfov), 0, 0, NULL, 0.01, 179, NULL, "DEG",
+      "vertical field of view in degrees (overrides the header's worldToNDC)", NULL, 0 },
+    { "camera-chan", 0, FP_OPT_STRING, CAM(chan), 0, 0, NULL, 0, 0, NULL, "FILE",
+      "Nuke .chan camera file: lines 'frame tx ty tz rx ry rz vfov'", NULL, 0 },
+    { "up", 0, FP_OPT_ENUM, CAM(up), 0, 0, "y", 0, 0, "y|z", NULL,
+      "world up axis (z for Blender-style data)", NULL, 0 },
+    { "depth-kind", 0, FP_OPT_ENUM, CAM(depth_kind), 0, 0, "planar", 0, 0,
+      "planar|radial|inverse", NULL,
+      "what depth holds: camera-space z, distance along the ray, or 1/z", NULL, 0 },
+    { "far", 0, FP_OPT_REAL, CAM(far), 0, 0, "inf", 0, INFINITY, NULL, "D",
+      "depth at or beyond this is sky", NULL, 0 },
+    FP_OPT_END
+};
+
+/* ------------------------------------------------------------ matrices */
+
+void fp_mat4_mul(const double a[16], const double b[16], double out[16])
+{
+    double r[16];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double s = 0;
+            for (int k = 0; k < 4; k++)
+                s += a[i * 4 + k] * b[k * 4 + j];
+            r[i * 4 + j] = s;
+        }
+    memcpy(out, r, sizeof r);
+}
+
+/* Gauss-Jordan with partial pivoting, for any n. */
+static int invert(int n, const double *m, double *out)
+{
+    double a[4][8];
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++) {
+            a[i][j] = m[i * n + j];
+            a[i][n + j] = i == j;
+        }
+    double scale = 0;
+    for (int i = 0; i < n * n; i++)
+        scale = fmax(scale, fabs(m[i]));
+    if (!(scale > 0))
+        return FP_ERR;
+    for (int c = 0; c < n; c++) {
+        int piv = c;
+        for (int r = c + 1; r < n; r++)
+            if (fabs(a[r][c]) > fabs(a[piv][c]))
+                piv = r;
+        if (fabs(a[piv][c]) <= 1e-14 * scale)
+            return FP_ERR;
+        if (piv != c)
+            for (int j = 0; j < 2 * n; j++) {
+                double t = a[c][j];
+                a[c][j] = a[piv][j];
+                a[piv][j] = t;
+            }
+        double d = a[c][c];
+        for (int j = 0; j < 2 * n; j++)
+            a[c][j] /= d;
+        for (int r = 0; r < n; r++) {
+            if (r == c)
+                continue;
+            double f = a[r][c];
+            for (int j = 0; j < 2 * n; j++)
+                a[r][j] -= f * a[c][j];
+        }
+    }
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++)
+            out[i * n + j] = a[i][n + j];
+    return FP_OK;
+}
+
+int fp_mat4_inverse(const double m[16], double out[16]) { return invert(4, m, out); }
+int fp_mat3_inverse(const double m[9], double out[9]) { return invert(3, m, out); }
+
+static void mat3_mul(const double a[9], const double b[9], double out[9])
+{
+    double r[9];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            r[i * 3 + j] = a[i * 3] * b[j] + a[i * 3 + 1] * b[3 + j] + a[i * 3 + 2] * b[6 + j];
+    memcpy(out, r, sizeof r);
+}
+
+static void rot_x(double deg, double r[9])
+{
+    double c = cos(deg * M_PI / 180), s = sin(deg * M_PI / 180);
+    double m[9] = { 1, 0, 0, 0, c, -s, 0, s, c };
+    memcpy(r, m, sizeof m);
+}
+static void rot_y(double deg, double r[9])
+{
+    double c = cos(deg * M_PI / 180), s = sin(deg * M_PI / 180);
+    double m[9] = { c, 0, s, 0, 1, 0, -s, 0, c };
+    memcpy(r, m, sizeof m);
+}
+static void rot_z(double deg, double r[9])
+{
+    double c = cos(deg * M_PI / 180), s = sin(deg * M_PI / 180);
+    double m[9] = { c, -s, 0, s, c, 0, 0, 0, 1 };
+    memcpy(r, m, sizeof m);
+}
+
+static void normalize3(double v[3])
+{
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (l > 0)
+        for (int i = 0; i < 3; i++)
+            v[i] /= l;
+}
+
+static void cross3(const double a[3], const double b[3], double out[3])
+{
+    double r[3] = { a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0] };
+    memcpy(out, r, sizeof r);
+}
+
+/* ------------------------------------------------------------ sources */
+
+/* Orientation and position from worldToCamera: C2W = inverse(W2C); a
+ * camera-space point c maps to [c,1] * C2W. */
+static int from_world_to_camera(const double w2c[16], fp_camera_t *c)
+{
+    double c2w[16];
+    if (fp_mat4_inverse(w2c, c2w))
+        return FP_ERR;
+    for (int i = 0; i < 3; i++) {
+        c->origin[i] = c2w[12 + i];
+        for (int j = 0; j < 3; j++)
+            c->c2w[i * 3 + j] = c2w[j * 4 + i];  /* transpose: column convention */
+    }
+    return FP_OK;
+}
+
+/* The NDC->camera homography from worldToNDC and worldToCamera: for
+ * camera points (x, y, 1), ndc_h = [x, y, 1, 1] * C2N, so the 3x3 map G
+ * from (x, y, 1) to (nx w, ny w, w) is read off C2N; invert it. */
+static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_camera_t *c)
+{
+    double c2w[16], c2n[16], g[9];
+    if (fp_mat4_inverse(w2c, c2w))
+        return FP_ERR;
+    fp_mat4_mul(c2w, w2n, c2n);
+    const int cols[3] = { 0, 1, 3 };
+    for (int r = 0; r < 3; r++) {
+        int k = cols[r];
+        g[r * 3 + 0] = c2n[0 * 4 + k];
+        g[r * 3 + 1] = c2n[1 * 4 + k];
+        g[r * 3 + 2] = c2n[2 * 4 + k] + c2n[3 * 4 + k];
+    }
+    return fp_mat3_inverse(g, c->ndc_to_cam);
+}
+
+static void from_vfov(double vfov_deg, const fp_frame_info_t *info, fp_camera_t *c)
+{
+    double aspect = (double)info->disp_w * (info->pixel_aspect > 0 ? info->pixel_aspect : 1) /
+                    info->disp_h;
+    double sy = 1 / (2 * tan(vfov_deg * M_PI / 360));
+    double sx = sy / aspect;
+    double h[9] = { 1 / sx, 0, -0.5 / sx, 0, -1 / sy, 0.5 / sy, 0, 0, 1 };
+    memcpy(c->ndc_to_cam, h, sizeof h);
+}
+
+/* Nuke's ZXY order: rotate about Z, then X, then Y (R = Ry Rx Rz), camera
+ * looking down -Z; OpenEXR camera space looks down +z, so flip z. */
+static void from_rotation(const double rot[3], fp_camera_t *c)
+{
+    double rx[9], ry[9], rz[9], r[9];
+    rot_x(rot[0], rx);
+    rot_y(rot[1], ry);
+    rot_z(rot[2], rz);
+    mat3_mul(ry, rx, r);
+    mat3_mul(r, rz, r);
+    const double flip[9] = { 1, 0, 0, 0, 1, 0, 0, 0, -1 };
+    mat3_mul(r, flip, c->c2w);
+}
+
+static int from_target(const double target[3], int up, fp_camera_t *c,
+                       const char *where_file, long frame)
+{
+    double f[3] = { target[0] - c->origin[0], target[1] - c->origin[1], target[2] - c->origin[2] };
+    double wup[3] = { 0, up == FP_UP_Z ? 0 : 1, up == FP_UP_Z ? 1 : 0 };
+    normalize3(f);
+    double r[3], u[3];
+    cross3(f, wup, r);
+    if (sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) < 1e-9)
+        return fp_usage_error("%s: frame %ld: --camera-target is straight above or below the "
+                              "camera (expected a view direction not parallel to up)",
+                              where_file, frame);
+    normalize3(r);
+    cross3(r, f, u);
+    for (int i = 0; i < 3; i++) {
+        c->c2w[i * 3 + 0] = r[i];
+        c->c2w[i * 3 + 1] = u[i];
+        c->c2w[i * 3 + 2] = f[i];
+    }
+    return FP_OK;
+}
+
+/* One line of a Nuke .chan file for `frame`: frame tx ty tz rx ry rz vfov. */
+static int read_chan(const char *path, long frame, double v[7])
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return fp_error("%s: cannot open camera file (%s)", path, strerror(errno));
+    char line[1024];
+    int lineno = 0, found = 0, rc = FP_OK;
+    while (fgets(line, sizeof line, f)) {
+        lineno++;
+        char *s = line;
+        while (*s == ' ' || *s == '\t')
+            s++;
+        if (*s == '#' || *s == '\n' || *s == 0)
+            continue;
+        double fr, a[7];
+        int n = sscanf(s, "%lf %lf %lf %lf %lf %lf %lf %lf", &fr, &a[0], &a[1], &a[2],
+                       &a[3], &a[4], &a[5], &a[6]);
+        if (n != 8) {
+            rc = fp_error("%s:%d: expected 'frame tx ty tz rx ry rz vfov'", path, lineno);
+            break;
+        }
+        if (fabs(fr - (double)frame) < 1e-6) {
+            memcpy(v, a, sizeof a);
+            found = 1;
+            break;
+        }
+    }
+    fclose(f);
+    if (rc == FP_OK && !found)
+        rc = fp_error("%s: no line for frame %ld", path, frame);
+    return rc;
+}
+
+int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
+                      const char *where_file, long frame, fp_camera_t *out)
+{
+    const fp_camera_params_t *cp = &p->camera;
+    fp_camera_t c;
+    memset(&c, 0, sizeof c);
+    int have_pose = 0, have_proj = 0;
+    char src_pose[200] = "", src_proj[200] = "";
+
+    if (info->has_world_to_camera) {
+        if (from_world_to_camera(info->world_to_camera, &c))
+            return fp_error("%s: frame %ld: worldToCamera is not invertible "
+                            "(override with --camera-pos/--camera-rot)", where_file, frame);
+        have_pose = 1;
+        snprintf(src_pose, sizeof src_pose, "header worldToCamera");
+        if (info->has_world_to_ndc) {
+            if (from_world_to_ndc(info->world_to_camera, info->world_to_ndc, &c))
+                return fp_error("%s: frame %ld: worldToNDC is not a usable projection "
+                                "(override with --vfov)", where_file, frame);
+            have_proj = 1;
+            snprintf(src_proj, sizeof src_proj, "header worldToNDC");
+        }
+    }
+
+    double chan[7];
+    if (cp->chan) {
+        if (read_chan(cp->chan, frame, chan))
+            return FP_ERR;
+        memcpy(c.origin, chan, 3 * sizeof(double));
+        from_rotation(chan + 3, &c);
+        from_vfov(chan[6], info, &c);
+        have_pose = have_proj = 1;
+        snprintf(src_pose, sizeof src_pose, "%.150s", cp->chan);
+        snprintf(src_proj, sizeof src_proj, "%.150s", cp->chan);
+    }
+    if (fp_options_given(p, "camera-pos")) {
+        memcpy(c.origin, cp->pos, sizeof c.origin);
+        if (!have_pose)
+            memcpy(c.c2w, (double[9]){ 1, 0, 0, 0, 1, 0, 0, 0, -1 }, sizeof c.c2w);
+        have_pose = 1;
+        snprintf(src_pose, sizeof src_pose, "options");
+    }
+    if (fp_options_given(p, "camera-target")) {
+        if (!have_pose)
+            return fp_usage_error("%s: frame %ld: --camera-target needs a camera position "
+                                  "(--camera-pos or the header's worldToCamera)", where_file, frame);
+        if (from_target(cp->target, cp->up, &c, where_file, frame))
+            return FP_EUSAGE;
+        snprintf(src_pose, sizeof src_pose, "options");
+    } else if (fp_options_given(p, "camera-rot")) {
+        if (!have_pose)
+            return fp_usage_error("%s: frame %ld: --camera-rot needs a camera position "
+                                  "(--camera-pos or the header's worldToCamera)", where_file, frame);
+        from_rotation(cp->rot, &c);
+        snprintf(src_pose, sizeof src_pose, "options");
+    }
+    if (fp_options_given(p, "vfov")) {
+        from_vfov(cp->vfov, info, &c);
+        have_proj = 1;
+        snprintf(src_proj, sizeof src_proj, "--vfov");
+    }
+    if (!have_pose)
+        return fp_error("%s: frame %ld: no camera (expected a worldToCamera header attribute; "
+                        "or give --camera-pos with --camera-rot or --camera-target, and --vfov, "
+                        "or --camera-chan)", where_file, frame);
+    if (!have_proj)
+        return fp_error("%s: frame %ld: no projection (expected a worldToNDC header attribute; "
+                        "or give --vfov)", where_file, frame);
+    snprintf(c.source, sizeof c.source, "position/orientation from %s, projection from %s",
+             src_pose, src_proj);
+    *out = c;
+    return FP_OK;
+}
+
+void fp_camera_print(FILE *out, const fp_camera_t *c, const fp_frame_info_t *info,
+                     const char *where_file, long frame)
+{
+    /* Directions of the image center and edges, for the fields of view. */
+    double cc[3], top[3], bot[3], lft[3], rgt[3];
+    double pts[5][2] = { { 0.5, 0.5 }, { 0.5, 0 }, { 0.5, 1 }, { 0, 0.5 }, { 1, 0.5 } };
+    double *dirs[5] = { cc, top, bot, lft, rgt };
+    for (int k = 0; k < 5; k++) {
+        const double *h = c->ndc_to_cam;
+        double x = h[0] * pts[k][0] + h[1] * pts[k][1] + h[2];
+        double y = h[3] * pts[k][0] + h[4] * pts[k][1] + h[5];
+        double w = h[6] * pts[k][0] + h[7] * pts[k][1] + h[8];
+        double v[3] = { x / w, y / w, 1 };
+        normalize3(v);
+        memcpy(dirs[k], v, sizeof v);
+    }
+    double vfov = acos(fmin(1, top[0] * bot[0] + top[1] * bot[1] + top[2] * bot[2])) * 180 / M_PI;
+    double hfov = acos(fmin(1, lft[0] * rgt[0] + lft[1] * rgt[1] + lft[2] * rgt[2])) * 180 / M_PI;
+    double fw[3], up[3], rt[3];
+    for (int i = 0; i < 3; i++) {
+        fw[i] = c->c2w[i * 3] * cc[0] + c->c2w[i * 3 + 1] * cc[1] + c->c2w[i * 3 + 2] * cc[2];
+        rt[i] = c->c2w[i * 3];
+        up[i] = c->c2w[i * 3 + 1];
+    }
+    normalize3(fw);
+    normalize3(up);
+    normalize3(rt);
+    fprintf(out,
+            "%s: frame %ld: camera (%s)\n"
+            "  position  %.6g %.6g %.6g\n"
+            "  forward   %.6f %.6f %.6f\n"
+            "  up        %.6f %.6f %.6f\n"
+            "  right     %.6f %.6f %.6f\n"
+            "  vfov %.4f deg, hfov %.4f deg, display window %dx%d at (%d,%d), data window %dx%d at (%d,%d)\n",
+            where_file, frame, c->source, c->origin[0], c->origin[1], c->origin[2],
+            fw[0], fw[1], fw[2], up[0], up[1], up[2], rt[0], rt[1], rt[2], vfov, hfov,
+            info->disp_w, info->disp_h, info->disp_x0, info->disp_y0, info->width,
+            info->height, info->data_x0, info->data_y0);
+}
+
+/* ------------------------------------------------------------ view */
+
+void fp_world_to_fog(int up, const double w[3], double f[3])
+{
+    double r[3] = { w[0], up == FP_UP_Z ? w[2] : w[1], up == FP_UP_Z ? -w[1] : w[2] };
+    memcpy(f, r, sizeof r);
+}
+
+int fp_view_setup(const fp_camera_t *c, const fp_params_t *p,
+                  const fp_frame_info_t *info, fp_view_t *out)
+{
+    fp_view_t v;
+    memset(&v, 0, sizeof v);
+    fp_world_to_fog(p->camera.up, c->origin, v.origin);
+    for (int j = 0; j < 3; j++) {
+        double col[3] = { c->c2w[j], c->c2w[3 + j], c->c2w[6 + j] }, fcol[3];
+        fp_world_to_fog(p->camera.up, col, fcol);
+        for (int i = 0; i < 3; i++)
+            v.m[i * 3 + j] = fcol[i];
+    }
+    memcpy(v.h, c->ndc_to_cam, sizeof v.h);
+    v.ndc_scale[0] = 1.0 / info->disp_w;
+    v.ndc_scale[1] = 1.0 / info->disp_h;
+    v.ndc_offset[0] = info->data_x0 + 0.5 - info->disp_x0;
+    v.ndc_offset[1] = info->data_y0 + 0.5 - info->disp_y0;
+    v.far = p->camera.far;
+    v.depth_kind = p->camera.depth_kind;
+    v.width = info->width;
+    v.height = info->height;
+    *out = v;
+    return FP_OK;
+}
+
+int fp_view_is_sky(const fp_view_t *v, float depth, int *suspicious)
+{
+    *suspicious = 0;
+    if (isnan(depth) || depth < 0) {
+        *suspicious = 1;
+        return 1;
+    }
+    double z = depth;
+    if (v->depth_kind == FP_DEPTH_INVERSE) {
+        if (depth == 0)
+            return 1;
+        z = 1.0 / depth;
+    }
+    return isinf(z) || z >= 1e10 || z >= v->far;
+}
+
+void fp_view_ray(const fp_view_t *v, int x, int y, float depth, double dir[3], double *len)
+{
+    const double *h = v->h;
+    double nx = (x + v->ndc_offset[0]) * v->ndc_scale[0];
+    double ny = (y + v->ndc_offset[1]) * v->ndc_scale[1];
+    double cx = h[0] * nx + h[1] * ny + h[2];
+    double cy = h[3] * nx + h[4] * ny + h[5];
+    double cw = h[6] * nx + h[7] * ny + h[8];
+    double c[3] = { cx / cw, cy / cw, 1 };
+    int suspicious;
+    double scale;   /* camera-space point = c * scale */
+    int sky = fp_view_is_sky(v, depth, &suspicious);
+    if (!sky) {
+        if (v->depth_kind == FP_DEPTH_PLANAR)
+            scale = depth;
+        else if (v->depth_kind == FP_DEPTH_RADIAL)
+            scale = depth / sqrt(c[0] * c[0] + c[1] * c[1] + 1);
+        else
+            scale = 1.0 / depth;
+    } else {
+        scale = 1;
+    }
+    /* Direction from the unscaled camera vector, so that a zero depth still
+     * has a direction. */
+    double d[3];
+    for (int i = 0; i < 3; i++)
+        d[i] = v->m[i * 3] * c[0] + v->m[i * 3 + 1] * c[1] + v->m[i * 3 + 2] * c[2];
+    double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int i = 0; i < 3; i++)
+        dir[i] = d[i] / l;
+    *len = sky ? INFINITY : l * scale;
+}
+
+void fp_view_pack(const fp_view_t *v, float out[FP_VIEW_FLOATS])
+{
+    memset(out, 0, FP_VIEW_FLOATS * sizeof(float));
+    for (int i = 0; i < 3; i++)
+        out[i] = (float)v->origin[i];
+    for (int i = 0; i < 9; i++) {
+        out[3 + i] = (float)v->m[i];
+        out[12 + i] = (float)v->h[i];
+    }
+    out[21] = (float)v->ndc_scale[0];
+    out[22] = (float)v->ndc_scale[1];
+    out[23] = (float)v->ndc_offset[0];
+    out[24] = (float)v->ndc_offset[1];
+    out[25] = (float)v->far;
+    out[26] = (float)v->depth_kind;
+}

@@ -1,0 +1,127 @@
+/* fogpipe: EXR frames in and out, through OpenEXR's C API (openexr.h).
+ *
+ * Every frame, from a file or from stdin, is first held whole in memory and
+ * decoded from there through a custom read callback (the in-memory pattern
+ * of OpenEXR's ImfCheckFile.cpp), so files and streams share one path.
+ *
+ * Ownership: an fp_frame_t owns its memory image of the input file, the
+ * decoded color and depth, and the raw bytes of every channel it does not
+ * touch; fp_frame_free releases all of it.  Functions here are reentrant:
+ * different frames may be read/written from different threads at once. */
+#ifndef FP_EXRIO_H
+#define FP_EXRIO_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+typedef struct fp_frame_t fp_frame_t;
+
+/* How to find color and depth.  NULL/0 fields mean "search by the default
+ * names": color R,G,B[,A]; else <layer>.Combined.R/G/B[/A] (Blender
+ * multilayer), the first such layer; depth Z, depth.Z, <layer>.Depth.Z
+ * (the layer of the color first). */
+typedef struct fp_exr_select_t {
+    const char *color_layer;   /* prefix: channels "<prefix>.R" ...; "" or NULL = search */
+    const char *depth_channel; /* full channel name, e.g. "ViewLayer.Depth.Z" */
+    int need_color;            /* 0: color is optional (depth-only files) */
+    int need_depth;            /* 0: depth is optional (it comes from --depth PATTERN) */
+} fp_exr_select_t;
+#define FP_EXR_SELECT_INITIALIZER { NULL, NULL, 1, 1 }
+
+typedef struct fp_frame_info_t {
+    /* Data window: the pixels we hold, width*height of them. */
+    int data_x0, data_y0, width, height;
+    /* Display window: the image's frame for camera NDC. */
+    int disp_x0, disp_y0, disp_w, disp_h;
+    float pixel_aspect;
+    int has_world_to_camera, has_world_to_ndc;
+    /* Row-major 4x4, OpenEXR's row-vector convention: p' = p * M,
+     * element (r,c) at [r*4+c]. */
+    double world_to_camera[16];
+    double world_to_ndc[16];
+    int compression;           /* exr_compression_t of the color part */
+    int num_parts;
+    int has_alpha;             /* the color had an alpha channel */
+    char color_names[4][256];  /* names of R,G,B,A channels found ("" if none) */
+    char depth_name[256];      /* name of the depth channel ("" if none) */
+} fp_frame_info_t;
+
+/* Decode an EXR image held in memory.  Takes ownership of `buf` (from
+ * malloc), also on failure: it is freed with the frame.  `where_file` and
+ * `frame` only label messages.  On failure prints one line naming the file and frame and
+ * returns non-zero. */
+int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
+                       long frame, const fp_exr_select_t *sel,
+                       fp_frame_t **out);
+
+/* Read a whole file into memory and decode it (fp_exr_read_memory). */
+int fp_exr_read_file(const char *path, long frame, const fp_exr_select_t *sel,
+                     fp_frame_t **out);
+
+/* Stream framing: read exactly one EXR file from a concatenated stream
+ * (stdin) into a malloc'd buffer, using its header, offset table and chunk
+ * headers to know where it ends.  Returns FP_OK with *buf and *size set, FP_EOF
+ * when the stream is at a clean end before the first byte of a frame, and
+ * FP_ERR (message printed: "<stdin>: frame N: truncated ...") otherwise.
+ * `index` is the frame's position in the stream, for messages. */
+int fp_exr_stream_next(FILE *in, const char *where_file, long index,
+                       void **buf, size_t *size);
+
+const fp_frame_info_t *fp_frame_info(const fp_frame_t *f);
+/* Color as float RGBA, width*height*4, row-major over the data window,
+ * A = 1 when the input had none.  NULL when there was no color. */
+float *fp_frame_rgba(fp_frame_t *f);
+/* Depth as float, width*height, or NULL when there was none. */
+float *fp_frame_depth(fp_frame_t *f);
+
+/* Replace the frame's depth by the depth channel of another frame (the
+ * --depth PATTERN sequence).  Fails with a message naming both files when
+ * the data windows differ. */
+int fp_frame_take_depth(fp_frame_t *f, const char *f_name, fp_frame_t *depth,
+                        const char *depth_name, long frame);
+
+/* An extra float channel to add to the output (fog AOVs). */
+typedef struct fp_exr_extra_t {
+    const char *name;
+    const float *data;         /* width*height floats over the data window */
+} fp_exr_extra_t;
+
+typedef struct fp_exr_write_opts_t {
+    int use_float;             /* write color as FLOAT instead of HALF */
+    int compression;           /* exr_compression_t, or -1: the input's */
+    const fp_exr_extra_t *extra;
+    int num_extra;
+    int color_only;            /* 1: drop pass-through channels (AOV-only output) */
+} fp_exr_write_opts_t;
+#define FP_EXR_WRITE_OPTS_INITIALIZER { 0, -1, NULL, 0, 0 }
+
+/* Encode the frame to memory: every part, header attribute, data and
+ * display window of the input kept; the color channels replaced by `rgba`
+ * (width*height*4 floats; written under the input's color channel names,
+ * R,G,B,A when the input had no color; A only if the input had alpha or
+ * rgba is given for a color-less input); every other channel passed through
+ * unchanged.  Output is scanline.  *out is malloc'd. */
+int fp_exr_encode(const fp_frame_t *f, const float *rgba,
+                  const fp_exr_write_opts_t *opts, const char *where_file,
+                  long frame, void **out, size_t *out_size);
+
+/* Encode and write atomically: to "<dir>/.<name>.tmp.<pid>" then rename, so
+ * the frame appears whole or not at all; the temporary is removed on error. */
+int fp_exr_write_file(const fp_frame_t *f, const float *rgba,
+                      const fp_exr_write_opts_t *opts, const char *path,
+                      long frame);
+
+/* Read a whole file into a malloc'd buffer (shared helper). */
+int fp_read_whole_file(const char *path, void **buf, size_t *size);
+/* Write a buffer to `path` atomically (temporary file + rename). */
+int fp_write_file_atomic(const char *path, const void *buf, size_t size);
+
+/* Parse a compression name ("none", "rle", "zips", "zip", "piz", "pxr24",
+ * "b44", "b44a", "dwaa", "dwab") into exr_compression_t; -1 if unknown. */
+int fp_exr_compression_from_name(const char *name);
+const char *fp_exr_compression_name(int compression);
+
+void fp_frame_free(fp_frame_t *f);
+
+#endif

@@ -1,0 +1,42 @@
+/* fogpipe: common definitions shared by every module.
+ *
+ * Conventions (STYLE.md): every fallible function returns an int status,
+ * FP_OK (0) on success; outputs come last; one exit path frees what the
+ * function made.  Messages are one line on stderr, prefixed "fogpipe: ",
+ * naming the file, the frame and what was expected. */
+#ifndef FP_H
+#define FP_H
+
+#include <stddef.h>
+#include <stdio.h>
+#include <stdarg.h>
+
+enum {
+    FP_OK = 0,
+    FP_ERR = 1,       /* runtime error: bad input file, I/O, device */
+    FP_EUSAGE = 2,    /* usage error: unknown option, value out of range */
+    FP_EOF = 3        /* clean end of a stream (not an error for callers that expect it) */
+};
+
+#define FP_ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
+
+/* Print "fogpipe: <message>\n" on stderr.  Returns FP_ERR so that callers
+ * can write `return fp_error(...)`. */
+int fp_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* Same, returning FP_EUSAGE. */
+int fp_usage_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* "fogpipe: warning: <message>" unless fp_quiet is set. */
+void fp_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* Verbose/informational message, printed only when fp_verbose > 0. */
+void fp_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+extern int fp_quiet;
+extern int fp_verbose;
+
+/* A frame's label for messages: "shot.0012.exr" or "<stdin> frame 3". */
+typedef struct fp_where_t {
+    const char *file;   /* file name or "<stdin>" */
+    long frame;         /* frame number, or stream index */
+} fp_where_t;
+
+#endif

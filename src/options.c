@@ -1,0 +1,486 @@
+#include "options.h"
+#include "fp.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "config.h"
+
+extern const fp_option_t fp_io_options[];
+extern const fp_option_t fp_camera_options[];
+extern const fp_option_t fp_integrate_options[];
+
+#define CMD(f) offsetof(fp_params_t, cmd.f)
+static const fp_option_t cmd_options[] = {
+    { "help", 'h', FP_OPT_FLAG, CMD(help), 0, 0, NULL, 0, 1, NULL, NULL,
+      "print this help and exit", NULL, FP_OPTF_CLI_ONLY },
+    { "help-markdown", 0, FP_OPT_FLAG, CMD(help_markdown), 0, 0, NULL, 0, 1, NULL, NULL,
+      "print the option reference as a Markdown table (for the README)", NULL,
+      FP_OPTF_CLI_ONLY | FP_OPTF_HIDDEN },
+    { "version", 'V', FP_OPT_FLAG, CMD(version), 0, 0, NULL, 0, 1, NULL, NULL,
+      "print the version and exit", NULL, FP_OPTF_CLI_ONLY },
+    { "list-devices", 0, FP_OPT_FLAG, CMD(list_devices), 0, 0, NULL, 0, 1, NULL, NULL,
+      "list the OpenCL devices, numbered as --device takes them, and exit", NULL,
+      FP_OPTF_CLI_ONLY },
+    { "print-camera", 0, FP_OPT_FLAG, CMD(print_camera), 0, 0, NULL, 0, 1, NULL, NULL,
+      "print the camera understood for each frame (after overrides) and exit", NULL,
+      FP_OPTF_CLI_ONLY },
+    FP_OPT_END
+};
+
+const fp_option_group_t fp_option_groups[] = {
+    { "Commands", cmd_options },
+    { "Input and output", fp_io_options },
+    { "Camera and depth", fp_camera_options },
+    { "Fog", fp_integrate_options },
+    { NULL, NULL }
+};
+
+const fp_option_t *fp_options_find(const char *name)
+{
+    for (const fp_option_group_t *g = fp_option_groups; g->title; g++)
+        for (const fp_option_t *o = g->options; o->name; o++)
+            if (strcmp(o->name, name) == 0)
+                return o;
+    return NULL;
+}
+
+static const fp_option_t *find_short(char c)
+{
+    for (const fp_option_group_t *g = fp_option_groups; g->title; g++)
+        for (const fp_option_t *o = g->options; o->name; o++)
+            if (o->short_name && o->short_name == c)
+                return o;
+    return NULL;
+}
+
+/* Parse a real, accepting inf/-inf as strtod does; the whole string must be
+ * consumed. */
+static int parse_real(const char *s, double *out)
+{
+    char *end;
+    errno = 0;
+    while (isspace((unsigned char)*s))
+        s++;
+    if (!*s)
+        return -1;
+    double v = strtod(s, &end);
+    while (isspace((unsigned char)*end))
+        end++;
+    if (*end || errno == ERANGE || isnan(v))
+        return -1;
+    *out = v;
+    return 0;
+}
+
+static void range_text(const fp_option_t *o, char *buf, size_t n)
+{
+    if (o->type == FP_OPT_ENUM) {
+        snprintf(buf, n, "%s", o->choices);
+        return;
+    }
+    char a[32], b[32];
+    if (isinf(o->min))
+        snprintf(a, sizeof a, "%s", o->min < 0 ? "-inf" : "inf");
+    else
+        snprintf(a, sizeof a, "%g", o->min);
+    if (isinf(o->max))
+        snprintf(b, sizeof b, "%s", o->max < 0 ? "-inf" : "inf");
+    else
+        snprintf(b, sizeof b, "%g", o->max);
+    snprintf(buf, n, "%s..%s", a, b);
+}
+
+static int check_range(const fp_option_t *o, double v, const char *origin)
+{
+    if (v < o->min || v > o->max) {
+        char r[64];
+        range_text(o, r, sizeof r);
+        return fp_usage_error("%s: --%s: %g is out of range (expected %s)",
+                              origin, o->name, v, r);
+    }
+    return FP_OK;
+}
+
+static int parse_bool(const char *s, int *out)
+{
+    if (!strcasecmp(s, "1") || !strcasecmp(s, "true") || !strcasecmp(s, "yes") ||
+        !strcasecmp(s, "on"))
+        *out = 1;
+    else if (!strcasecmp(s, "0") || !strcasecmp(s, "false") || !strcasecmp(s, "no") ||
+             !strcasecmp(s, "off"))
+        *out = 0;
+    else
+        return -1;
+    return 0;
+}
+
+static int set_value(fp_params_t *p, const fp_option_t *o, const char *value,
+                     const char *origin)
+{
+    char *field = (char *)p + o->offset;
+    if (o->set)
+        return o->set(p, o, value);
+    switch (o->type) {
+    case FP_OPT_FLAG: {
+        int b = 1;
+        if (value && parse_bool(value, &b))
+            return fp_usage_error("%s: --%s: expected a yes/no value, got '%s'",
+                                  origin, o->name, value);
+        *(int *)field = b;
+        return FP_OK;
+    }
+    case FP_OPT_INT: {
+        double v;
+        if (parse_real(value, &v) || v != floor(v))
+            return fp_usage_error("%s: --%s: expected an integer, got '%s'",
+                                  origin, o->name, value);
+        if (check_range(o, v, origin))
+            return FP_EUSAGE;
+        *(int *)field = (int)v;
+        return FP_OK;
+    }
+    case FP_OPT_REAL: {
+        double v;
+        if (parse_real(value, &v))
+            return fp_usage_error("%s: --%s: expected a number, got '%s'",
+                                  origin, o->name, value);
+        if (check_range(o, v, origin))
+            return FP_EUSAGE;
+        *(double *)field = v;
+        return FP_OK;
+    }
+    case FP_OPT_STRING: {
+        char **s = (char **)field;
+        char *copy = strdup(value);
+        if (!copy)
+            return fp_error("out of memory");
+        free(*s);
+        *s = copy;
+        return FP_OK;
+    }
+    case FP_OPT_ENUM: {
+        int idx = 0;
+        const char *c = o->choices;
+        size_t len = strlen(value);
+        while (c && *c) {
+            const char *bar = strchr(c, '|');
+            size_t n = bar ? (size_t)(bar - c) : strlen(c);
+            if (n == len && strncasecmp(c, value, n) == 0) {
+                *(int *)field = idx;
+                return FP_OK;
+            }
+            idx++;
+            c = bar ? bar + 1 : NULL;
+        }
+        return fp_usage_error("%s: --%s: unknown value '%s' (expected %s)",
+                              origin, o->name, value, o->choices);
+    }
+    case FP_OPT_VEC: {
+        double v[8];
+        int n = 0;
+        char *copy = strdup(value);
+        if (!copy)
+            return fp_error("out of memory");
+        int bad = 0;
+        /* Empty components ("1,,2") are errors, so split by hand. */
+        const char *s = copy;
+        for (;;) {
+            const char *comma = strchr(s, ',');
+            size_t len = comma ? (size_t)(comma - s) : strlen(s);
+            char part[64];
+            if (n >= o->count || len == 0 || len >= sizeof part) {
+                bad = 1;
+                break;
+            }
+            memcpy(part, s, len);
+            part[len] = 0;
+            if (parse_real(part, &v[n])) {
+                bad = 1;
+                break;
+            }
+            n++;
+            if (!comma)
+                break;
+            s = comma + 1;
+        }
+        free(copy);
+        if (bad || n < o->min_count) {
+            if (o->min_count == o->count)
+                return fp_usage_error("%s: --%s: expected %d comma-separated numbers %s, got '%s'",
+                                      origin, o->name, o->count, o->metavar, value);
+            return fp_usage_error("%s: --%s: expected %d to %d comma-separated numbers %s, got '%s'",
+                                  origin, o->name, o->min_count, o->count, o->metavar, value);
+        }
+        for (int i = 0; i < n; i++)
+            if (check_range(o, v[i], origin))
+                return FP_EUSAGE;
+        /* Components the user left out keep their defaults. */
+        double *dst = (double *)field;
+        for (int i = 0; i < n; i++)
+            dst[i] = v[i];
+        return FP_OK;
+    }
+    }
+    return fp_error("internal: option --%s has an unknown type", o->name);
+}
+
+static void mark_given(fp_params_t *p, const fp_option_t *o)
+{
+    for (int i = 0; i < p->num_given; i++)
+        if (p->given[i] == o->name)
+            return;
+    if (p->num_given < FP_MAX_GIVEN)
+        p->given[p->num_given++] = o->name;
+}
+
+int fp_options_given(const fp_params_t *p, const char *name)
+{
+    for (int i = 0; i < p->num_given; i++)
+        if (strcmp(p->given[i], name) == 0)
+            return 1;
+    return 0;
+}
+
+int fp_options_defaults(fp_params_t *p)
+{
+    memset(p, 0, sizeof *p);
+    for (const fp_option_group_t *g = fp_option_groups; g->title; g++)
+        for (const fp_option_t *o = g->options; o->name; o++) {
+            if (!o->def)
+                continue;
+            int rc;
+            if (o->type == FP_OPT_VEC) {
+                /* A vector default sets every component, even optional ones. */
+                const fp_option_t full = { o->name, 0, FP_OPT_VEC, o->offset, o->count,
+                                           o->count, NULL, o->min, o->max, NULL,
+                                           o->metavar, NULL, NULL, 0 };
+                rc = set_value(p, &full, o->def, "default");
+            } else {
+                rc = set_value(p, o, o->def, "default");
+            }
+            if (rc)
+                return fp_error("internal: bad default for --%s", o->name);
+        }
+    p->num_given = 0;
+    return FP_OK;
+}
+
+int fp_options_apply(fp_params_t *p, const char *name, const char *value,
+                     const char *origin)
+{
+    const fp_option_t *o = fp_options_find(name);
+    if (!o)
+        return fp_usage_error("%s: unknown option --%s (see fogpipe --help)", origin, name);
+    if (o->type != FP_OPT_FLAG && !value)
+        return fp_usage_error("%s: --%s needs a value %s", origin, name,
+                              o->metavar ? o->metavar : "");
+    int rc = set_value(p, o, value, origin);
+    if (rc == FP_OK)
+        mark_given(p, o);
+    return rc;
+}
+
+static char *trim(char *s)
+{
+    while (isspace((unsigned char)*s))
+        s++;
+    char *e = s + strlen(s);
+    while (e > s && isspace((unsigned char)e[-1]))
+        *--e = 0;
+    return s;
+}
+
+int fp_options_load_preset(fp_params_t *p, const char *path)
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return fp_usage_error("%s: cannot open preset (%s)", path, strerror(errno));
+    char line[4096];
+    int lineno = 0, rc = FP_OK;
+    while (rc == FP_OK && fgets(line, sizeof line, f)) {
+        lineno++;
+        char *s = trim(line);
+        if (!*s || *s == '#')
+            continue;
+        char origin[1100];
+        snprintf(origin, sizeof origin, "%.1000s:%d", path, lineno);
+        char *eq = strchr(s, '=');
+        if (!eq) {
+            rc = fp_usage_error("%s: expected 'name = value', got '%s'", origin, s);
+            break;
+        }
+        *eq = 0;
+        char *name = trim(s), *value = trim(eq + 1);
+        if (strncmp(name, "--", 2) == 0)
+            name += 2;
+        const fp_option_t *o = fp_options_find(name);
+        if (o && (o->flags & FP_OPTF_CLI_ONLY)) {
+            rc = fp_usage_error("%s: --%s is a command, not allowed in a preset", origin, name);
+            break;
+        }
+        rc = fp_options_apply(p, name, value, origin);
+    }
+    if (rc == FP_OK && ferror(f))
+        rc = fp_error("%s: read error", path);
+    fclose(f);
+    return rc;
+}
+
+/* Split "--name=value" / "--name value" / "-x value". */
+int fp_options_parse(int argc, char **argv, fp_params_t *p)
+{
+    int rc;
+    /* Presets first, so that the command line wins over them. */
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--") == 0)
+            break;
+        const char *file = NULL;
+        if (strcmp(a, "--preset") == 0) {
+            if (i + 1 >= argc)
+                return fp_usage_error("command line: --preset needs a FILE");
+            file = argv[++i];
+        } else if (strncmp(a, "--preset=", 9) == 0) {
+            file = a + 9;
+        }
+        if (file && (rc = fp_options_load_preset(p, file)))
+            return rc;
+    }
+    for (int i = 1; i < argc; i++) {
+        char *a = argv[i];
+        const fp_option_t *o = NULL;
+        const char *value = NULL;
+        char name[128];
+        if (strcmp(a, "--") == 0)
+            return fp_usage_error("command line: unexpected argument after --");
+        if (a[0] == '-' && a[1] == '-') {
+            const char *eq = strchr(a + 2, '=');
+            size_t n = eq ? (size_t)(eq - a - 2) : strlen(a + 2);
+            if (n >= sizeof name)
+                n = sizeof name - 1;
+            memcpy(name, a + 2, n);
+            name[n] = 0;
+            o = fp_options_find(name);
+            if (!o)
+                return fp_usage_error("command line: unknown option --%s (see fogpipe --help)", name);
+            if (eq)
+                value = eq + 1;
+        } else if (a[0] == '-' && a[1] && a[2] == 0) {
+            o = find_short(a[1]);
+            if (!o)
+                return fp_usage_error("command line: unknown option %s (see fogpipe --help)", a);
+        } else {
+            return fp_usage_error("command line: unexpected argument '%s' (options start with --; "
+                                  "use -i/-o for files)", a);
+        }
+        if (o->type != FP_OPT_FLAG && !value) {
+            if (i + 1 >= argc)
+                return fp_usage_error("command line: --%s needs a value %s", o->name,
+                                      o->metavar ? o->metavar : "");
+            value = argv[++i];
+        }
+        if (strcmp(o->name, "preset") == 0)
+            continue;   /* applied above */
+        if ((rc = fp_options_apply(p, o->name, value, "command line")))
+            return rc;
+    }
+    return FP_OK;
+}
+
+static const char *type_metavar(const fp_option_t *o)
+{
+    if (o->metavar)
+        return o->metavar;
+    switch (o->type) {
+    case FP_OPT_INT: return "N";
+    case FP_OPT_REAL: return "X";
+    case FP_OPT_STRING: return "TEXT";
+    case FP_OPT_ENUM: return o->choices;
+    default: return "";
+    }
+}
+
+/* Escape '|' for Markdown tables. */
+static void md_print(FILE *out, const char *s)
+{
+    for (; *s; s++) {
+        if (*s == '|')
+            fputs("\\|", out);
+        else
+            fputc(*s, out);
+    }
+}
+
+void fp_options_print_help(FILE *out, int markdown)
+{
+    if (!markdown) {
+        fprintf(out,
+                "Usage: fogpipe -i INPUT -o OUTPUT [--frames LIST] [options]\n"
+                "       fogpipe [options] < in.exr > out.exr\n"
+                "Adds physically based fog to color + depth OpenEXR frames.\n"
+                "INPUT/OUTPUT: a file, a sequence pattern (shot.####.exr, shot.%%04d.exr),\n"
+                "or - for a stream of concatenated EXR files on stdin/stdout.\n");
+    }
+    for (const fp_option_group_t *g = fp_option_groups; g->title; g++) {
+        if (markdown)
+            fprintf(out, "\n### %s\n\n| option | default | range | description |\n|---|---|---|---|\n",
+                    g->title);
+        else
+            fprintf(out, "\n%s:\n", g->title);
+        for (const fp_option_t *o = g->options; o->name; o++) {
+            if (o->flags & FP_OPTF_HIDDEN)
+                continue;
+            char opt[160], range[96] = "", def[96] = "";
+            const char *mv = o->type == FP_OPT_FLAG ? "" : type_metavar(o);
+            if (o->short_name)
+                snprintf(opt, sizeof opt, "-%c, --%s%s%s", o->short_name, o->name,
+                         *mv ? " " : "", mv);
+            else
+                snprintf(opt, sizeof opt, "--%s%s%s", o->name, *mv ? " " : "", mv);
+            if (o->type == FP_OPT_INT || o->type == FP_OPT_REAL || o->type == FP_OPT_VEC)
+                range_text(o, range, sizeof range);
+            else if (o->type == FP_OPT_ENUM)
+                snprintf(range, sizeof range, "%s", o->choices);
+            if (o->def)
+                snprintf(def, sizeof def, "%s", o->def);
+            if (markdown) {
+                fputs("| `", out);
+                md_print(out, opt);
+                fputs("` | ", out);
+                md_print(out, *def ? def : (o->type == FP_OPT_FLAG ? "off" : "-"));
+                fputs(" | ", out);
+                md_print(out, *range ? range : "-");
+                fputs(" | ", out);
+                md_print(out, o->help);
+                fputs(" |\n", out);
+            } else {
+                fprintf(out, "  %-34s %s", opt, o->help);
+                if (*def && o->type != FP_OPT_FLAG)
+                    fprintf(out, " [default: %s]", def);
+                if (*range && o->type != FP_OPT_ENUM)
+                    fprintf(out, " [range: %s]", range);
+                fputc('\n', out);
+            }
+        }
+    }
+    if (!markdown)
+        fprintf(out, "\nEnvironment: FOGPIPE_DEVICE (as --device), FOGPIPE_CACHE_DIR "
+                     "(OpenCL program cache; 'off' disables).\n%s %s\n",
+                PACKAGE_NAME, PACKAGE_VERSION);
+}
+
+void fp_options_free(fp_params_t *p)
+{
+    for (const fp_option_group_t *g = fp_option_groups; g->title; g++)
+        for (const fp_option_t *o = g->options; o->name; o++)
+            if (o->type == FP_OPT_STRING) {
+                char **s = (char **)((char *)p + o->offset);
+                free(*s);
+                *s = NULL;
+            }
+}

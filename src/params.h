@@ -1,0 +1,66 @@
+/* fogpipe: every user-settable parameter, grouped by stage.
+ *
+ * The single source of truth for names, defaults and ranges is the option
+ * table of each stage (FP_OPTIONS in its .c file); this struct only holds
+ * the values.  See src/options.h. */
+#ifndef FP_PARAMS_H
+#define FP_PARAMS_H
+
+#define FP_MAX_GIVEN 256
+
+enum { FP_DEPTH_PLANAR = 0, FP_DEPTH_RADIAL = 1, FP_DEPTH_INVERSE = 2 };
+enum { FP_UP_Y = 0, FP_UP_Z = 1 };
+
+typedef struct fp_io_params_t {
+    char *input;          /* pattern, file, or "-" for stdin */
+    char *output;         /* pattern, file, or "-" for stdout */
+    char *depth;          /* separate depth sequence pattern */
+    char *frames;         /* frame list, "1001-1100", "1-9x2,12" */
+    char *color_layer;
+    char *depth_channel;
+    int use_float;
+    char *compression;    /* "input" or a name */
+    char *device;
+    int cpu;              /* C reference instead of OpenCL */
+    char *preset;
+    int quiet;
+    int verbose;
+} fp_io_params_t;
+
+typedef struct fp_camera_params_t {
+    double pos[3];
+    double target[3];
+    double rot[3];        /* degrees, applied Z, then X, then Y (Nuke's ZXY) */
+    double vfov;          /* degrees */
+    char *chan;           /* Nuke .chan file */
+    int up;               /* FP_UP_Y / FP_UP_Z */
+    int depth_kind;       /* FP_DEPTH_* */
+    double far;           /* depth beyond this is sky */
+} fp_camera_params_t;
+
+typedef struct fp_fog_params_t {
+    double density;       /* extinction per scene unit */
+    double height[3];     /* Y0, H, TOP */
+    double color[3];      /* fog color (in-scattered ambient radiance) */
+} fp_fog_params_t;
+
+typedef struct fp_cmd_params_t {
+    int help;
+    int help_markdown;
+    int version;
+    int list_devices;
+    int print_camera;
+} fp_cmd_params_t;
+
+typedef struct fp_params_t {
+    fp_io_params_t io;
+    fp_camera_params_t camera;
+    fp_fog_params_t fog;
+    fp_cmd_params_t cmd;
+    /* Names of the options the user gave (CLI or preset), for "was this
+     * set?" questions such as camera overrides. */
+    const char *given[FP_MAX_GIVEN];
+    int num_given;
+} fp_params_t;
+
+#endif

@@ -1,0 +1,220 @@
+/* Camera: OpenEXR header matrices, overrides, .chan files, view rays and
+ * depth kinds. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "camera.h"
+#include "fp.h"
+#include "options.h"
+
+static uint64_t rng = 0x9E3779B97F4A7C15ull;
+static double urand(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+static void norm(double v[3])
+{
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int i = 0; i < 3; i++)
+        v[i] /= l;
+}
+
+/* OpenEXR's definitions, written out independently of src/camera.c. */
+static void header_camera(const double C[3], const double F0[3], double vfov, int w, int h,
+                          fp_frame_info_t *info)
+{
+    double F[3] = { F0[0], F0[1], F0[2] }, R[3], U[3];
+    norm(F);
+    R[0] = -F[2];   /* cross(F, (0,1,0)) */
+    R[1] = 0;
+    R[2] = F[0];
+    norm(R);
+    U[0] = R[1] * F[2] - R[2] * F[1];
+    U[1] = R[2] * F[0] - R[0] * F[2];
+    U[2] = R[0] * F[1] - R[1] * F[0];
+    double m[16] = { R[0], U[0], F[0], 0, R[1], U[1], F[1], 0, R[2], U[2], F[2], 0,
+                     -(C[0] * R[0] + C[1] * R[1] + C[2] * R[2]),
+                     -(C[0] * U[0] + C[1] * U[1] + C[2] * U[2]),
+                     -(C[0] * F[0] + C[1] * F[1] + C[2] * F[2]), 1 };
+    double sy = 1 / (2 * tan(vfov * M_PI / 360)), sx = sy * h / w;
+    double P[16] = { sx, 0, 0, 0, 0, -sy, 0, 0, 0.5, 0.5, 1, 1, 0, 0, 0, 0 };
+    memset(info, 0, sizeof *info);
+    info->width = info->disp_w = w;
+    info->height = info->disp_h = h;
+    info->pixel_aspect = 1;
+    info->has_world_to_camera = info->has_world_to_ndc = 1;
+    memcpy(info->world_to_camera, m, sizeof m);
+    fp_mat4_mul(m, P, info->world_to_ndc);
+}
+
+static void xform(const double m[16], const double p[3], double out[4])
+{
+    for (int j = 0; j < 4; j++)
+        out[j] = p[0] * m[j] + p[1] * m[4 + j] + p[2] * m[8 + j] + m[12 + j];
+}
+
+static void test_header_rays(void **state)
+{
+    (void)state;
+    for (int trial = 0; trial < 50; trial++) {
+        double C[3] = { 100 * urand() - 50, 20 * urand(), 100 * urand() - 50 };
+        double F[3] = { urand() - 0.5, 0.6 * (urand() - 0.5), urand() - 0.5 };
+        int w = 64 + (int)(200 * urand()), h = 48 + (int)(100 * urand());
+        fp_frame_info_t info;
+        header_camera(C, F, 20 + 80 * urand(), w, h, &info);
+        /* A data window inside a bigger display window. */
+        info.data_x0 = 3;
+        info.data_y0 = 5;
+        info.disp_x0 = -2;
+        info.disp_y0 = 1;
+        info.width = w - 9;
+        info.height = h - 11;
+        fp_params_t p;
+        fp_options_defaults(&p);
+        p.camera.depth_kind = trial % 3;
+        fp_camera_t c;
+        fp_view_t v;
+        assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+        assert_int_equal(fp_view_setup(&c, &p, &info, &v), FP_OK);
+        for (int k = 0; k < 3; k++)
+            assert_double_equal(c.origin[k], C[k], 1e-9 * (1 + fabs(C[k])));
+        for (int s = 0; s < 20; s++) {
+            int x = (int)(urand() * info.width), y = (int)(urand() * info.height);
+            float depth = (float)(0.5 + 200 * urand());
+            double dir[3], len, P[3], cam[4], ndc[4];
+            fp_view_ray(&v, x, y, depth, dir, &len);
+            for (int k = 0; k < 3; k++)
+                P[k] = C[k] + dir[k] * len;
+            xform(info.world_to_camera, P, cam);
+            xform(info.world_to_ndc, P, ndc);
+            double want_nx = (x + info.data_x0 + 0.5 - info.disp_x0) / (double)info.disp_w;
+            double want_ny = (y + info.data_y0 + 0.5 - info.disp_y0) / (double)info.disp_h;
+            assert_double_equal(ndc[0] / ndc[3], want_nx, 1e-9);
+            assert_double_equal(ndc[1] / ndc[3], want_ny, 1e-9);
+            if (p.camera.depth_kind == FP_DEPTH_PLANAR)
+                assert_double_equal(cam[2], depth, 1e-9 * depth);
+            else if (p.camera.depth_kind == FP_DEPTH_RADIAL)
+                assert_double_equal(len, depth, 1e-9 * depth);
+            else
+                assert_double_equal(cam[2], 1.0 / depth, 1e-9 / depth);
+        }
+        fp_options_free(&p);
+    }
+}
+
+static void center_dir(const char *const *args, int nargs, int up, double dir[3])
+{
+    fp_params_t p;
+    fp_options_defaults(&p);
+    for (int i = 0; i + 1 < nargs; i += 2)
+        assert_int_equal(fp_options_apply(&p, args[i], args[i + 1], "test"), FP_OK);
+    p.camera.up = up;
+    fp_frame_info_t info;
+    memset(&info, 0, sizeof info);
+    info.width = info.disp_w = 101;
+    info.height = info.disp_h = 51;
+    info.pixel_aspect = 1;
+    fp_camera_t c;
+    fp_view_t v;
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 7, &c), FP_OK);
+    assert_int_equal(fp_view_setup(&c, &p, &info, &v), FP_OK);
+    double len;
+    fp_view_ray(&v, 50, 25, 1, dir, &len);
+    fp_options_free(&p);
+}
+
+static void test_overrides(void **state)
+{
+    (void)state;
+    double d[3];
+    /* No rotation: the camera looks down -Z. */
+    const char *a1[] = { "camera-pos", "0,1,0", "camera-rot", "0,0,0", "vfov", "40" };
+    center_dir(a1, 6, FP_UP_Y, d);
+    assert_double_equal(d[2], -1, 1e-12);
+    /* Yaw 90 degrees about Y turns -Z into -X. */
+    const char *a2[] = { "camera-pos", "0,1,0", "camera-rot", "0,90,0", "vfov", "40" };
+    center_dir(a2, 6, FP_UP_Y, d);
+    assert_double_equal(d[0], -1, 1e-12);
+    /* Pitch +30 about X looks up. */
+    const char *a3[] = { "camera-pos", "0,1,0", "camera-rot", "30,0,0", "vfov", "40" };
+    center_dir(a3, 6, FP_UP_Y, d);
+    assert_double_equal(d[1], sin(M_PI / 6), 1e-12);
+    /* Look-at; with --up z, fog space is (x, z, -y). */
+    const char *a4[] = { "camera-pos", "1,2,3", "camera-target", "4,6,3", "vfov", "40" };
+    center_dir(a4, 6, FP_UP_Z, d);
+    assert_double_equal(d[0], 0.6, 1e-12);
+    assert_double_equal(d[1], 0, 1e-12);
+    assert_double_equal(d[2], -0.8, 1e-12);
+}
+
+static void test_chan_and_errors(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/fp-chan-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    const char *text = "1 0 1 0 0 0 0 40\n2 0 1 0 0 90 0 40\n";
+    assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    close(fd);
+    fp_params_t p;
+    fp_options_defaults(&p);
+    assert_int_equal(fp_options_apply(&p, "camera-chan", path, "test"), FP_OK);
+    fp_frame_info_t info;
+    memset(&info, 0, sizeof info);
+    info.width = info.disp_w = 40;
+    info.height = info.disp_h = 30;
+    info.pixel_aspect = 1;
+    fp_camera_t c;
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 2, &c), FP_OK);
+    assert_double_equal(c.c2w[2], -1, 1e-12);   /* forward = -X */
+    assert_int_not_equal(fp_camera_resolve(&p, &info, "t.exr", 3, &c), FP_OK);
+    fp_options_free(&p);
+    unlink(path);
+    /* No header camera and no overrides. */
+    fp_options_defaults(&p);
+    assert_int_not_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    fp_options_free(&p);
+}
+
+static void test_sky(void **state)
+{
+    (void)state;
+    fp_view_t v;
+    memset(&v, 0, sizeof v);
+    v.far = 500;
+    int s;
+    assert_true(fp_view_is_sky(&v, INFINITY, &s) && !s);
+    assert_true(fp_view_is_sky(&v, 1e10f, &s) && !s);
+    assert_true(fp_view_is_sky(&v, 600, &s) && !s);
+    assert_true(fp_view_is_sky(&v, NAN, &s) && s);
+    assert_true(fp_view_is_sky(&v, -1, &s) && s);
+    assert_false(fp_view_is_sky(&v, 10, &s));
+    v.depth_kind = FP_DEPTH_INVERSE;
+    assert_true(fp_view_is_sky(&v, 0, &s) && !s);
+    assert_false(fp_view_is_sky(&v, 0.1f, &s));
+    assert_true(fp_view_is_sky(&v, 0.001f, &s));   /* z = 1000 beyond far */
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_header_rays),
+        cmocka_unit_test(test_overrides),
+        cmocka_unit_test(test_chan_and_errors),
+        cmocka_unit_test(test_sky),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,224 @@
+/* The integrate stage: the closed-form optical depth against independent
+ * quadrature and known closed forms (double), and the OpenCL kernel against
+ * the C reference on whole frames of random rays (|dtau| <= 1e-5). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "camera.h"
+#include "clrt.h"
+#include "fp.h"
+#include "integrate.h"
+#include "options.h"
+
+static uint64_t rng = 88172645463325252ull;
+static double urand(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+static double density(const fp_integrate_data_t *d, double y)
+{
+    if (y >= d->top)
+        return 0;
+    if (y < d->y0)
+        return d->sigma;
+    return d->sigma * exp(-(y - d->y0) / d->H);
+}
+
+/* Independent check: composite Gauss-Legendre (5 nodes) over many panels,
+ * with panel edges at the slab crossings so the kink is not smeared. */
+static double quadrature(const fp_integrate_data_t *d, double oy, double dy, double len)
+{
+    static const double x[5] = { -0.9061798459386640, -0.5384693101056831, 0,
+                                 0.5384693101056831, 0.9061798459386640 };
+    static const double w[5] = { 0.2369268850561891, 0.4786286704993665, 0.5688888888888889,
+                                 0.4786286704993665, 0.2369268850561891 };
+    double cuts[4] = { 0, len, len, len };
+    int nc = 2;
+    if (dy != 0) {
+        double t0 = (d->y0 - oy) / dy, t1 = (d->top - oy) / dy;
+        if (t0 > 0 && t0 < len)
+            cuts[nc++] = t0;
+        if (isfinite(t1) && t1 > 0 && t1 < len)
+            cuts[nc++] = t1;
+    }
+    /* sort */
+    for (int i = 0; i < nc; i++)
+        for (int j = i + 1; j < nc; j++)
+            if (cuts[j] < cuts[i]) {
+                double t = cuts[i];
+                cuts[i] = cuts[j];
+                cuts[j] = t;
+            }
+    double sum = 0;
+    for (int s = 0; s + 1 < nc; s++) {
+        double a = cuts[s], b = cuts[s + 1];
+        const int panels = 2000;
+        double hw = (b - a) / panels;
+        for (int k = 0; k < panels; k++) {
+            double c = a + (k + 0.5) * hw;
+            for (int q = 0; q < 5; q++)
+                sum += w[q] * 0.5 * hw * density(d, oy + (c + 0.5 * hw * x[q]) * dy);
+        }
+    }
+    return sum;
+}
+
+static fp_integrate_data_t fog(double sigma, double y0, double H, double top)
+{
+    fp_integrate_data_t d;
+    memset(&d, 0, sizeof d);
+    d.sigma = sigma;
+    d.y0 = y0;
+    d.H = H;
+    d.top = top;
+    d.fog_color[0] = d.fog_color[1] = d.fog_color[2] = 0.5;
+    return d;
+}
+
+static void test_closed_forms(void **state)
+{
+    (void)state;
+    /* Homogeneous: sigma * L. */
+    fp_integrate_data_t h = fog(0.3, 0, INFINITY, INFINITY);
+    assert_double_equal(fp_integrate_optical_depth(&h, 5, 0.3, 10), 3.0, 1e-12);
+    /* Horizontal ray in the exponential part. */
+    fp_integrate_data_t e = fog(0.1, 2, 5, INFINITY);
+    assert_double_equal(fp_integrate_optical_depth(&e, 7, 0, 20), 0.1 * exp(-1.0) * 20, 1e-12);
+    /* Straight up from the base to infinity: sigma * H. */
+    assert_double_equal(fp_integrate_optical_depth(&e, 2, 1, INFINITY), 0.1 * 5, 1e-12);
+    /* Above the top nothing; below the base a sky ray going down is opaque. */
+    fp_integrate_data_t t = fog(0.1, 0, 10, 30);
+    assert_double_equal(fp_integrate_optical_depth(&t, 40, 0, 1e6), 0, 0);
+    assert_true(isinf(fp_integrate_optical_depth(&t, 5, -0.1, INFINITY)));
+    /* A level sky ray inside the exponential part sees infinite fog. */
+    assert_true(isinf(fp_integrate_optical_depth(&e, 3, 0, INFINITY)));
+    /* Zero length, zero density. */
+    assert_double_equal(fp_integrate_optical_depth(&e, 3, 0.5, 0), 0, 0);
+    fp_integrate_data_t z = fog(0, 0, 10, INFINITY);
+    assert_double_equal(fp_integrate_optical_depth(&z, 3, -1, INFINITY), 0, 0);
+}
+
+/* Random rays, grazing and level ones included, cameras below, inside and
+ * above the fog, against quadrature. */
+static void test_against_quadrature(void **state)
+{
+    (void)state;
+    double worst = 0;
+    for (int k = 0; k < 3000; k++) {
+        double H = 0.5 + 30 * urand();
+        double y0 = -5 + 10 * urand();
+        double top = urand() < 0.5 ? INFINITY : y0 + 1 + 40 * urand();
+        fp_integrate_data_t d = fog(0.01 + 0.2 * urand(), y0, H, top);
+        double oy = -20 + 80 * urand();
+        double dy;
+        switch (k % 4) {
+        case 0: dy = 0; break;                              /* level */
+        case 1: dy = (urand() - 0.5) * 1e-4; break;         /* grazing */
+        case 2: dy = (urand() - 0.5) * 2e-2; break;
+        default: dy = 2 * urand() - 1; break;
+        }
+        double len = pow(10, -2 + 5 * urand());
+        double a = fp_integrate_optical_depth(&d, oy, dy, len);
+        double b = quadrature(&d, oy, dy, len);
+        double err = fabs(a - b) / fmax(1e-300, fmax(fabs(b), 1e-12));
+        if (err > worst)
+            worst = err;
+        if (err > 1e-9)
+            fail_msg("ray %d: oy %g dy %g len %g fog (%g,%g,%g,%g): exact %.17g quadrature %.17g",
+                     k, oy, dy, len, d.sigma, d.y0, d.H, d.top, a, b);
+    }
+    print_message("max relative error against quadrature: %.3g\n", worst);
+}
+
+/* A synthetic frame: a wide camera with random pitch, random depths
+ * (log-uniform), sky and NaN samples, for the CL/C comparison. */
+static void make_view(fp_view_t *v, int w, int h, double cam_y, double pitch_deg)
+{
+    fp_params_t p;
+    fp_options_defaults(&p);
+    fp_frame_info_t info;
+    memset(&info, 0, sizeof info);
+    info.width = info.disp_w = w;
+    info.height = info.disp_h = h;
+    info.pixel_aspect = 1;
+    fp_options_apply(&p, "camera-pos", "3,0,-7", "test");
+    char rot[64], vfov[] = "150";
+    snprintf(rot, sizeof rot, "%g,25,0", pitch_deg);
+    fp_options_apply(&p, "camera-rot", rot, "test");
+    fp_options_apply(&p, "vfov", vfov, "test");
+    p.camera.pos[1] = cam_y;
+    fp_camera_t c;
+    assert_int_equal(fp_camera_resolve(&p, &info, "synthetic", 1, &c), FP_OK);
+    assert_int_equal(fp_view_setup(&c, &p, &info, v), FP_OK);
+    fp_options_free(&p);
+}
+
+static void test_opencl_parity(void **state)
+{
+    (void)state;
+    fp_cl_t *cl = NULL;
+    if (fp_cl_open(NULL, &cl) != FP_OK)
+        skip();
+    fp_integrate_cl_t s;
+    assert_int_equal(fp_integrate_cl_init(cl, &s), FP_OK);
+    const int w = 192, h = 128;
+    size_t n = (size_t)w * h;
+    float *depth = malloc(n * sizeof(float));
+    float *ref = malloc(n * 4 * sizeof(float));
+    float *got = malloc(n * 4 * sizeof(float));
+    const double cams[4][2] = { { 1.5, -3 }, { 12, -30 }, { 60, -80 }, { -4, 20 } };
+    const double fogs[3][4] = { { 0.05, 0, 8, INFINITY }, { 0.02, 2, 20, 40 },
+                                { 0.01, -1, INFINITY, 15 } };
+    double worst = 0;
+    for (int ci = 0; ci < 4; ci++)
+        for (int fi = 0; fi < 3; fi++) {
+            fp_view_t v;
+            make_view(&v, w, h, cams[ci][0], cams[ci][1]);
+            fp_integrate_data_t d = fog(fogs[fi][0], fogs[fi][1], fogs[fi][2], fogs[fi][3]);
+            for (size_t i = 0; i < n; i++) {
+                double u = urand();
+                depth[i] = u < 0.05 ? INFINITY : u < 0.07 ? NAN : u < 0.09 ? 1e10f
+                                                 : (float)pow(10, -1 + 4 * urand());
+            }
+            long bad = 0;
+            assert_int_equal(fp_integrate_process(&d, &v, depth, ref, &bad), FP_OK);
+            assert_true(bad > 0);
+            assert_int_equal(fp_integrate_process_cl(&s, &d, &v, depth, got), FP_OK);
+            for (size_t i = 0; i < n; i++)
+                for (int c = 0; c < 4; c++) {
+                    double e = fabs((double)got[4 * i + c] - ref[4 * i + c]);
+                    if (e > worst)
+                        worst = e;
+                    if (!(e <= 1e-5))
+                        fail_msg("camera %d fog %d pixel %zu ch %d depth %g: cl %.9g ref %.9g",
+                                 ci, fi, i, c, depth[i], got[4 * i + c], ref[4 * i + c]);
+                }
+        }
+    print_message("OpenCL vs C reference: max |difference| %.3g (tolerance 1e-5)\n", worst);
+    free(depth);
+    free(ref);
+    free(got);
+    fp_integrate_cl_release(&s);
+    fp_cl_close(cl);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_closed_forms),
+        cmocka_unit_test(test_against_quadrature),
+        cmocka_unit_test(test_opencl_parity),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
