@@ -1,0 +1,104 @@
+#!/bin/sh
+# Command-line behaviour: help, devices, sequences, every bad input (one
+# line naming file and frame, non-zero exit, no partial output), parity of
+# OpenCL and the C reference on whole frames, install.
+. "${FP_SRCDIR:-.}/tests/lib.sh"
+S=$FP_SAMPLES
+
+check "--help lists options with defaults and ranges" \
+  sh -c '"$FOGPIPE" --help | grep -q -- "--density SIGMA.*default: 0.02.*range: 0..1e+06"'
+check "--version" sh -c '"$FOGPIPE" --version | grep -q "^fogpipe "'
+check "--list-devices shows PoCL's CPU device" sh -c '"$FOGPIPE" --list-devices | grep -qi "pthread\|cpu"'
+fails "unknown option: exit 2" 2 "unknown option --bogus" - "$FOGPIPE" --bogus
+fails "out-of-range value: exit 2" 2 "density.*out of range" - "$FOGPIPE" --density -3 -i "$S/scene.0001.exr" -o "$T/x.exr"
+fails "unknown device" 1 "device" "$T/dev.exr" "$FOGPIPE" --device nosuchdevice -i "$S/scene.0001.exr" -o "$T/dev.exr"
+
+# A sequence, with the pass-through depth channel and the alpha kept.
+check "fog a sequence of 3 frames" "$FOGPIPE" -i "$S/scene.####.exr" -o "$T/seq.####.exr" --frames 1-3
+check "3 frames written" test -f "$T/seq.0001.exr" -a -f "$T/seq.0002.exr" -a -f "$T/seq.0003.exr" -a ! -e "$T/seq.0004.exr"
+check "output keeps channels, windows and camera attributes" sh -c '
+  "$OIIOTOOL" --info -v "$1" > "$2/info.txt" &&
+  grep -q "R, G, B, A, Z" "$2/info.txt" && grep -q "worldToCamera" "$2/info.txt" &&
+  grep -q "worldToNDC" "$2/info.txt" && grep -q "320 x  180" "$2/info.txt"' sh "$T/seq.0002.exr" "$T"
+check "depth passes through unchanged" "$IDIFF" -q -fail 0 -warn 0 \
+  -ch Z "$S/scene.0002.exr" "$T/seq.0002.exr"
+check "fog changes the color" sh -c '! "$IDIFF" -q -fail 0.01 -ch R,G,B "$1" "$2" >/dev/null' sh \
+  "$S/scene.0002.exr" "$T/seq.0002.exr"
+check "no temporary files left" sh -c '! ls -a "$1" | grep -q "\.tmp\."' sh "$T"
+check "frames found on disk without --frames" "$FOGPIPE" -i "$S/scene.%04d.exr" -o "$T/all.@@@@.exr"
+check "all 8 found" test -f "$T/all.0008.exr" -a -f "$T/all.0001.exr"
+
+fails "missing frame in a range names it, writes nothing" 1 "scene.0009.exr: frame 9: missing input" \
+  "$T/miss.0001.exr" "$FOGPIPE" -i "$S/scene.####.exr" -o "$T/miss.####.exr" --frames 1-9
+fails "missing file" 1 "nope.exr" "$T/o1.exr" "$FOGPIPE" -i "$T/nope.exr" -o "$T/o1.exr"
+echo "this is not an EXR file at all" > "$T/text.exr"
+fails "not an EXR" 1 "text.exr.*frame 1.*(not an EXR|magic)" "$T/o2.exr" "$FOGPIPE" -i "$T/text.exr" -o "$T/o2.exr"
+head -c 20000 "$S/scene.0001.exr" > "$T/trunc.exr"
+fails "truncated file" 1 "trunc.exr.*frame 1" "$T/o3.exr" "$FOGPIPE" -i "$T/trunc.exr" -o "$T/o3.exr"
+fails "no color channel" 1 "shadow.0001.exr.*frame 1.*no color" "$T/o4.exr" \
+  "$FOGPIPE" -i "$S/shadow.0001.exr" -o "$T/o4.exr"
+"$OIIOTOOL" "$S/scene.0001.exr" --ch R,G,B,A -o "$T/nodepth.exr"
+fails "no depth channel" 1 "nodepth.exr.*frame 1.*no depth channel.*--depth-channel" "$T/o5.exr" \
+  "$FOGPIPE" -i "$T/nodepth.exr" -o "$T/o5.exr"
+fails "color/depth size mismatch names both files" 1 "nodepth.exr.*shadow.0001.exr|shadow.0001.exr.*nodepth.exr" \
+  "$T/o6.exr" "$FOGPIPE" -i "$T/nodepth.exr" --depth "$S/shadow.0001.exr" -o "$T/o6.exr"
+fails "unwritable output" 1 "no/such/dir/o7.exr" - "$FOGPIPE" -i "$S/scene.0001.exr" -o "$T/no/such/dir/o7.exr"
+fails "output over its own input" 2 "overwrite" - "$FOGPIPE" -i "$T/seq.0001.exr" -o "$T/seq.0001.exr"
+fails "a sequence into one file" 2 "sequence pattern" - "$FOGPIPE" -i "$S/scene.####.exr" -o "$T/one.exr" --frames 1-2
+
+# A failed run leaves an existing output as it was.
+cp "$T/seq.0001.exr" "$T/keep.exr"
+fails "failed run keeps the old output" 1 "trunc.exr" - "$FOGPIPE" -i "$T/trunc.exr" -o "$T/keep.exr"
+check "old output intact" cmp "$T/seq.0001.exr" "$T/keep.exr"
+
+# NaN or negative depth: sky, and a warning that counts them.
+"$OIIOTOOL" "$S/scene.0001.exr" --ch "R,G,B,A,Z=-1" -o "$T/negdepth.exr"
+check "negative depth is sky, with a warning" sh -c '
+  "$FOGPIPE" -i "$1" -o "$2" 2> "$3" && grep -q "57600 pixels with NaN or negative depth" "$3"' sh \
+  "$T/negdepth.exr" "$T/negdepth.out.exr" "$T/warn.txt"
+check "-q silences warnings" sh -c '"$FOGPIPE" -q -i "$1" -o "$2" 2> "$3" && ! test -s "$3"' sh \
+  "$T/negdepth.exr" "$T/negdepth.out.exr" "$T/warn.txt"
+
+# Separate depth sequence and Blender multilayer input give the same fog.
+"$OIIOTOOL" "$S/scene.0001.exr" --ch Z -o "$T/d.0001.exr"
+check "--depth PATTERN" "$FOGPIPE" -i "$T/nodepth.exr" --depth "$T/d.####.exr" --frames 1 -o "$T/sep.exr"
+check "separate depth = embedded depth" "$IDIFF" -q -fail 0 -ch R,G,B,A "$T/seq.0001.exr" "$T/sep.exr"
+mkdir -p "$T/blender"
+"$FP_SCENE" -o "$T/blender" --layout blender --frames 1-1 --shadow-size 0 >/dev/null
+check "Blender multilayer input" "$FOGPIPE" -i "$T/blender/scene.0001.exr" -o "$T/blender-out.exr"
+check "Blender output keeps layer names" sh -c '"$OIIOTOOL" --info -v "$1" | grep -q "ViewLayer.Combined.R"' \
+  sh "$T/blender-out.exr"
+"$OIIOTOOL" "$T/blender-out.exr" --ch "R=ViewLayer.Combined.R,G=ViewLayer.Combined.G,B=ViewLayer.Combined.B" -o "$T/blender-rgb.exr"
+check "Blender layout fogs like the plain one" "$IDIFF" -q -fail 0 -ch R,G,B "$T/seq.0001.exr" "$T/blender-rgb.exr"
+check "--color-layer/--depth-channel overrides" "$FOGPIPE" -i "$T/blender/scene.0001.exr" \
+  -o "$T/blender-ovr.exr" --color-layer ViewLayer.Combined --depth-channel ViewLayer.Depth.Z
+fails "--depth-channel that does not exist" 1 "scene.0001.exr.*frame 1.*(Nope.Z|depth)" "$T/o8.exr" \
+  "$FOGPIPE" -i "$T/blender/scene.0001.exr" -o "$T/o8.exr" --depth-channel Nope.Z
+
+# OpenCL against the C double-precision reference on whole frames.
+check "--cpu reference" "$FOGPIPE" --cpu --float -i "$S/scene.0003.exr" -o "$T/cpu.exr"
+check "OpenCL" "$FOGPIPE" --float -i "$S/scene.0003.exr" -o "$T/cl.exr"
+check "OpenCL within 1e-5 of the C reference (float output)" "$IDIFF" -q -fail 1e-5 -warn 1e-5 \
+  "$T/cpu.exr" "$T/cl.exr"
+
+# --print-camera and camera overrides.
+check "--print-camera" sh -c '"$FOGPIPE" --print-camera -i "$1" --frames 1-2 > "$2" &&
+  test "$(grep -c "position" "$2")" = 2 && grep -q "header worldToCamera" "$2"' sh "$S/scene.####.exr" "$T/cam.txt"
+printf '1 0 2 -10 0 180 0 45\n' > "$T/cam.chan"
+check "--camera-chan" sh -c '"$FOGPIPE" --print-camera -i "$1" --camera-chan "$2" | grep -q "forward   0.000000 0.000000 1.000000"' \
+  sh "$S/scene.0001.exr" "$T/cam.chan"
+
+# Presets: key = value lines; the command line wins.
+printf 'density = 0.5\nfog-color = 1,0,0\n' > "$T/look.preset"
+check "--preset" "$FOGPIPE" --preset "$T/look.preset" --density 0.02 -i "$S/scene.0001.exr" -o "$T/preset.exr"
+check "command line wins over the preset" sh -c '"$FOGPIPE" --fog-color 1,0,0 -i "$1" -o "$2" &&
+  "$IDIFF" -q -fail 0 "$2" "$3"' sh "$S/scene.0001.exr" "$T/preset-cli.exr" "$T/preset.exr"
+
+# make install with DESTDIR: the installed binary runs from anywhere.
+if [ -n "${FP_BUILDDIR:-}" ] && env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install DESTDIR="$T/dest" prefix=/opt/fp >"$T/install.txt" 2>&1; then
+  check "installed fogpipe runs from / with embedded kernels" sh -c 'cd / &&
+    "$1/opt/fp/bin/fogpipe" -i "$2" -o "$3"' sh "$T/dest" "$S/scene.0001.exr" "$T/installed.exr"
+else
+  not_ok "make install DESTDIR"; diag "$T/install.txt" 2>/dev/null || true
+fi
+finish

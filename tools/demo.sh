@@ -1,0 +1,17 @@
+#!/bin/sh
+# The demo: fog the sample sequence and say where the frames are.
+#   tools/demo.sh ./fogpipe samples/out
+set -eu
+bin=$1 samples=$2
+out=demo-out
+mkdir -p "$out"
+"$bin" -i "$samples/scene.####.exr" -o "$out/fogged.####.exr" --frames 1-8 \
+  --density 0.03 --height 0,12 --fog-color 0.75,0.78,0.82
+if command -v oiiotool >/dev/null; then
+  for f in 1 8; do
+    n=$(printf %04d "$f")
+    oiiotool "$out/fogged.$n.exr" --ch R,G,B --colorconvert linear sRGB -d uint8 -o "$out/fogged.$n.png" 2>/dev/null || true
+  done
+fi
+echo "demo: sample frames in $samples/scene.0001.exr .. scene.0008.exr"
+echo "demo: fogged frames in $(pwd)/$out/fogged.0001.exr .. fogged.0008.exr (PNG previews of 1 and 8 beside them)"
