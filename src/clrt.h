@@ -24,13 +24,19 @@ extern const fp_kernel_source_t fp_kernel_sources[];
 extern const int fp_kernel_source_count;
 
 /* Print every platform and device, one per line, numbered as --device N
- * takes them: "N: <device name> [<platform>, <type>, driver <version>]". */
+ * takes them: "N: <device name> [<platform>, <type>, driver <version>]"
+ * (" (not available)" appended for such a device).  FP_ERR with a message
+ * when there is no platform or no device. */
 int fp_cl_list_devices(FILE *out);
 
 /* Open a device.  `spec` is "N" (index as listed), or a case-insensitive
  * substring of the device or platform name; NULL means $FOGPIPE_DEVICE,
  * else the first GPU, else the first device (PoCL's "pthread" CPU device
- * on a machine without one). */
+ * on a machine without one).  The platform vendor is matched too, so that
+ * "pocl" finds PoCL ("Portable Computing Language" by "The pocl project").
+ * Devices reporting CL_DEVICE_AVAILABLE false are skipped by the default
+ * choice and refused when named.  A spec that matches nothing returns
+ * FP_EUSAGE; other failures FP_ERR.  The queue is in order. */
 int fp_cl_open(const char *spec, fp_cl_t **out);
 void fp_cl_close(fp_cl_t *cl);
 
@@ -46,7 +52,18 @@ const char *fp_cl_device_label(const fp_cl_t *cl);
  * disables it.  The key hashes the inlined source, the options, the device
  * name and version, the driver version and the platform version.  Programs
  * are also kept in memory for the life of `cl`: the returned program is
- * owned by `cl`.  The build log is printed on failure. */
+ * owned by `cl`.  The build log is printed on failure.
+ *
+ * `options` (NULL = "") are passed to clBuildProgram exactly as given:
+ * nothing is added, so callers name the language version they need
+ * ("-cl-std=CL1.2", which PoCL and NVIDIA both accept).
+ *
+ * Cache files are "<sha256 key>.bin": magic, key, payload size and the
+ * payload's SHA-256 ahead of the driver's binary, so a truncated or corrupt
+ * file is ignored and rewritten; a binary the driver rejects falls back to
+ * the source.  Files are written to a temporary name and renamed, so
+ * concurrent fogpipe processes sharing the cache only see whole files.
+ * An unusable cache directory is a warning, never an error. */
 int fp_cl_program(fp_cl_t *cl, const char *stage, const char *options,
                   cl_program *out);
 
