@@ -6,104 +6,130 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The reference: fog_core.h in double precision with higher-order
+ * quadrature (FP_GL_EXTRA, FP_EXP_STEP defaults for C). */
+#include "../kernels/fog_core.h"
+
+_Static_assert(FP_F_COUNT == FP_F_COUNT_, "fog parameter count");
+_Static_assert(FP_MAX_LEVELS_ALL == FP_LEVEL_TABLE, "level table size");
+_Static_assert(FP_LI_STRIDE == 8 && FP_LR_STRIDE == 4, "level table strides");
+
 static int set_visibility(fp_params_t *p, const fp_option_t *o, const char *value)
 {
     char *end;
     double d = strtod(value, &end);
     if (end == value || *end || !(d > 0) || isinf(d))
-        return fp_usage_error("--visibility: expected a distance > 0 in scene units, got '%s'",
+        return fp_usage_error("--%s: expected a distance > 0 in scene units, got '%s'", o->name,
                               value);
     /* Visibility: the distance at which 90% of light is lost. */
-    p->fog.density = log(10.0) / d;
+    *(double *)((char *)p + o->offset) = log(10.0) / d;
     return FP_OK;
 }
 
 #define FOG(f) offsetof(fp_params_t, fog.f)
 const fp_option_t fp_integrate_options[] = {
     { "density", 0, FP_OPT_REAL, FOG(density), 0, 0, "0.02", 0, 1e6, NULL, "SIGMA",
-      "extinction per scene unit at the base of the fog", NULL, 0 },
+      "extinction per scene unit at the base of the fog (times the fogmap's value with "
+      "--fogmap)", NULL, 0 },
     { "visibility", 0, FP_OPT_REAL, FOG(density), 0, 0, NULL, 0, INFINITY, NULL, "D",
       "set the density by visibility: 90% of light lost over D scene units "
       "(sigma = ln(10)/D)", set_visibility, 0 },
     { "height", 0, FP_OPT_VEC, FOG(height), 3, 2, "0,20,inf", -1e9, INFINITY, NULL, "Y0,H[,TOP]",
       "height profile: full density below Y0, exp(-(y-Y0)/H) above it, none above TOP "
       "(H = inf: homogeneous)", NULL, 0 },
+    { "haze", 0, FP_OPT_REAL, FOG(haze), 0, 0, "0", 0, 1e6, NULL, "SIGMA",
+      "homogeneous haze added to the fog, extinction per scene unit", NULL, 0 },
+    { "haze-visibility", 0, FP_OPT_REAL, FOG(haze), 0, 0, NULL, 0, INFINITY, NULL, "D",
+      "set the haze by visibility (sigma = ln(10)/D)", set_visibility, 0 },
+    { "haze-height", 0, FP_OPT_VEC, FOG(haze_height), 3, 2, "0,inf,inf", -1e9, INFINITY, NULL,
+      "Y0,H[,TOP]", "height profile of the haze, as --height", NULL, 0 },
     { "fog-color", 0, FP_OPT_VEC, FOG(color), 3, 3, "0.7,0.75,0.8", 0, 1e6, NULL, "R,G,B",
       "fog color: in-scattered ambient radiance, scene-linear", NULL, 0 },
+    { "fog-box", 0, FP_OPT_VEC, FOG(box), 6, 6, "-inf,-inf,-inf,inf,inf,inf", -INFINITY,
+      INFINITY, NULL, "X0,Y0,Z0,X1,Y1,Z1",
+      "no fog outside this box (in the fog's frame: after --fog-offset and --fog-rotate)",
+      NULL, 0 },
+    { "fog-offset", 0, FP_OPT_VEC, FOG(offset), 3, 3, "0,0,0", -1e9, 1e9, NULL, "X,Y,Z",
+      "move the fog (fogmap, height profile and box) in the world", NULL, 0 },
+    { "fog-rotate", 0, FP_OPT_REAL, FOG(rotate), 0, 0, "0", -36000, 36000, NULL, "DEG",
+      "turn the fog about the vertical axis through --fog-offset, degrees", NULL, 0 },
     FP_OPT_END
 };
+
+static void check_profile(const char *name, const double *h, int *rc)
+{
+    if (*rc)
+        return;
+    if (!(h[1] > 0))
+        *rc = fp_usage_error("--%s: the scale height H must be > 0 (got %g)", name, h[1]);
+    else if (!(h[2] > h[0]))
+        *rc = fp_usage_error("--%s: TOP (%g) must be above Y0 (%g)", name, h[2], h[0]);
+}
 
 int fp_integrate_commit(const fp_params_t *p, fp_integrate_data_t *d)
 {
     memset(d, 0, sizeof *d);
-    d->sigma = p->fog.density;
-    d->y0 = p->fog.height[0];
-    d->H = p->fog.height[1];
-    d->top = p->fog.height[2];
-    if (!(d->H > 0))
-        return fp_usage_error("--height: the scale height H must be > 0 (got %g)", d->H);
-    if (!(d->top > d->y0))
-        return fp_usage_error("--height: TOP (%g) must be above Y0 (%g)", d->top, d->y0);
-    memcpy(d->fog_color, p->fog.color, sizeof d->fog_color);
+    const fp_fog_params_t *f = &p->fog;
+    int rc = FP_OK;
+    check_profile("height", f->height, &rc);
+    check_profile("haze-height", f->haze_height, &rc);
+    for (int i = 0; i < 3 && rc == FP_OK; i++)
+        if (!(f->box[i + 3] > f->box[i]))
+            rc = fp_usage_error("--fog-box: expected X0,Y0,Z0 below X1,Y1,Z1");
+    if (rc)
+        return rc;
+    double *v = d->fp;
+    v[FP_F_SIGMA] = f->density;
+    v[FP_F_Y0] = f->height[0];
+    v[FP_F_H] = f->height[1];
+    v[FP_F_TOP] = f->height[2];
+    for (int i = 0; i < 3; i++)
+        v[FP_F_OFF + i] = f->offset[i];
+    /* The fog turns by +angle: world -> fog-local turns by -angle. */
+    v[FP_F_COS] = cos(f->rotate * M_PI / 180);
+    v[FP_F_SIN] = sin(f->rotate * M_PI / 180);
+    for (int i = 0; i < 6; i++)
+        v[FP_F_BOX + i] = f->box[i];
+    v[FP_F_HAZE] = f->haze;
+    for (int i = 0; i < 3; i++)
+        v[FP_F_HAZE + 1 + i] = f->haze_height[i];
+    v[FP_F_OD_MAX] = INFINITY;
+    v[FP_F_CAP] = INFINITY;
+    v[FP_F_STEPS] = 1;
+    memcpy(d->fog_color, f->color, sizeof d->fog_color);
     return FP_OK;
 }
 
-/* [a, b] within [0, len] where lo <= oy + t dy < hi; 0 if empty. */
-static int slab_interval(double oy, double dy, double lo, double hi, double len,
-                         double *a, double *b)
+/* An empty table set for fog without a fogmap (the kernel still takes
+ * buffers). */
+static const int no_lvi[FP_LEVEL_TABLE * 8];
+static const double no_lvf[FP_LEVEL_TABLE * 4];
+static const float no_coef[1];
+static const unsigned char no_occ[1];
+
+double fp_integrate_optical_depth(const fp_integrate_data_t *d, const double o[3],
+                                  const double dir[3], double len, double jitter)
 {
-    double t0, t1;
-    if (dy == 0) {
-        if (oy < lo || oy >= hi)
-            return 0;
-        t0 = 0;
-        t1 = len;
-    } else {
-        double u = (lo - oy) / dy, v = (hi - oy) / dy;
-        t0 = fmax(fmin(u, v), 0);
-        t1 = fmin(fmax(u, v), len);
-    }
-    *a = t0;
-    *b = t1;
-    return t1 > t0;
+    const fp_fog_tables_t *t = d->tables;
+    return fp_fog_od(d->fp, t ? t->lvi : no_lvi, t ? t->lvf : no_lvf, t ? t->coef : no_coef,
+                     t ? t->occ : no_occ, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, jitter);
 }
 
-/* (1 - exp(-x)) / x, x >= 0, without cancellation. */
-static double expm1_ratio(double x)
+float fp_integrate_jitter(int x, int y)
 {
-    return x < 1e-8 ? 1 - 0.5 * x : -expm1(-x) / x;
-}
-
-double fp_integrate_optical_depth(const fp_integrate_data_t *d, double oy, double dy,
-                                  double len)
-{
-    double od = 0, a, b;
-    if (d->sigma <= 0)
-        return 0;
-    if (slab_interval(oy, dy, -INFINITY, fmin(d->y0, d->top), len, &a, &b))
-        od += b - a;
-    if (slab_interval(oy, dy, d->y0, d->top, len, &a, &b)) {
-        /* Heights in units of H from the base; the integral of exp(-y) from
-         * the lowest point m over a rise D is exp(-m) (1 - exp(-D)). */
-        double ya = (oy + a * dy - d->y0) / d->H;
-        if (isinf(b)) {
-            if (dy > 0)
-                od += exp(-ya) * d->H / dy;
-            else if (exp(-ya) > 0)
-                od = INFINITY;
-        } else {
-            double D = fabs(dy) * (b - a) / d->H;
-            double m = dy < 0 ? ya - D : ya;
-            od += (b - a) * exp(-m) * expm1_ratio(D);
-        }
-    }
-    return d->sigma * od;
+    /* Must match pixel_jitter() in kernels/integrate.cl. */
+    unsigned h = (unsigned)x * 73856093u ^ (unsigned)y * 19349663u;
+    h ^= h >> 13;
+    h *= 0x5bd1e995u;
+    h ^= h >> 15;
+    return (float)(h & 0xffffffu) / 16777216.0f - 0.5f;
 }
 
 int fp_integrate_process(const fp_integrate_data_t *d, const fp_view_t *v,
                          const float *depth, float *fog, long *suspicious)
 {
     long bad = 0;
+    int jitter = d->fp[FP_F_JITTER] != 0;
     for (int y = 0; y < v->height; y++)
         for (int x = 0; x < v->width; x++) {
             size_t i = (size_t)y * v->width + x;
@@ -112,7 +138,9 @@ int fp_integrate_process(const fp_integrate_data_t *d, const fp_view_t *v,
             fp_view_is_sky(v, depth[i], &s);
             bad += s;
             fp_view_ray(v, x, y, depth[i], dir, &len);
-            double tau = exp(-fp_integrate_optical_depth(d, v->origin[1], dir[1], len));
+            double od = fp_integrate_optical_depth(d, v->origin, dir, len,
+                                                   jitter ? fp_integrate_jitter(x, y) : 0);
+            double tau = exp(-od);
             for (int c = 0; c < 3; c++)
                 fog[4 * i + c] = (float)((1 - tau) * d->fog_color[c]);
             fog[4 * i + 3] = (float)tau;
@@ -127,14 +155,22 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s)
     memset(s, 0, sizeof *s);
     s->cl = cl;
     cl_program prog;
-    if (fp_cl_program(cl, "integrate", "-cl-std=CL1.2", &prog))
-        return FP_ERR;
-    if (fp_cl_kernel(prog, "integrate_height", &s->kernel))
+    if (fp_cl_program(cl, "integrate", "-cl-std=CL1.2", &prog) ||
+        fp_cl_kernel(prog, "integrate_fog", &s->kernel))
         return FP_ERR;
     cl_int err;
-    s->view = clCreateBuffer(fp_cl_context(cl), CL_MEM_READ_ONLY,
-                             FP_VIEW_FLOATS * sizeof(float), NULL, &err);
-    return fp_cl_check(err, "integrate: view buffer");
+    cl_context ctx = fp_cl_context(cl);
+    s->view = clCreateBuffer(ctx, CL_MEM_READ_ONLY, FP_VIEW_FLOATS * sizeof(float), NULL, &err);
+    if (fp_cl_check(err, "integrate: view buffer"))
+        return FP_ERR;
+    s->params = clCreateBuffer(ctx, CL_MEM_READ_ONLY, FP_F_COUNT * sizeof(float), NULL, &err);
+    if (fp_cl_check(err, "integrate: parameter buffer"))
+        return FP_ERR;
+    s->lvi = clCreateBuffer(ctx, CL_MEM_READ_ONLY, sizeof no_lvi, NULL, &err);
+    if (fp_cl_check(err, "integrate: level buffer"))
+        return FP_ERR;
+    s->lvf = clCreateBuffer(ctx, CL_MEM_READ_ONLY, FP_LEVEL_TABLE * 4 * sizeof(float), NULL, &err);
+    return fp_cl_check(err, "integrate: level buffer");
 }
 
 static int ensure_capacity(fp_integrate_cl_t *s, size_t n)
@@ -159,33 +195,73 @@ static int ensure_capacity(fp_integrate_cl_t *s, size_t n)
     return FP_OK;
 }
 
+/* The fogmap tables go to the device once, not per frame. */
+static int upload_tables(fp_integrate_cl_t *s, const fp_fog_tables_t *t)
+{
+    unsigned long serial = t ? t->serial : 0;
+    if (s->coef && s->uploaded == serial)
+        return FP_OK;
+    cl_context ctx = fp_cl_context(s->cl);
+    cl_command_queue q = fp_cl_queue(s->cl);
+    if (s->coef)
+        clReleaseMemObject(s->coef);
+    if (s->occ)
+        clReleaseMemObject(s->occ);
+    s->coef = s->occ = NULL;
+    cl_int err;
+    const void *coef = t ? (const void *)t->coef : no_coef;
+    size_t ncoef = t ? t->ncoef : 1, nocc = t ? t->nocc : 1;
+    const void *occ = t ? (const void *)t->occ : no_occ;
+    s->coef = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ncoef * sizeof(float),
+                             (void *)coef, &err);
+    if (fp_cl_check(err, "integrate: fogmap coefficients"))
+        return FP_ERR;
+    s->occ = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, nocc, (void *)occ, &err);
+    if (fp_cl_check(err, "integrate: fogmap occupancy"))
+        return FP_ERR;
+    float lvf[FP_LEVEL_TABLE * 4];
+    for (int i = 0; i < FP_LEVEL_TABLE * 4; i++)
+        lvf[i] = (float)(t ? t->lvf[i] : 0);
+    if (fp_cl_check(clEnqueueWriteBuffer(q, s->lvi, CL_TRUE, 0, sizeof no_lvi, t ? t->lvi : no_lvi,
+                                         0, NULL, NULL), "integrate: upload level table") ||
+        fp_cl_check(clEnqueueWriteBuffer(q, s->lvf, CL_TRUE, 0, sizeof lvf, lvf, 0, NULL, NULL),
+                    "integrate: upload level table"))
+        return FP_ERR;
+    s->uploaded = serial;
+    return FP_OK;
+}
+
 int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth, float *fog)
 {
     size_t n = (size_t)v->width * v->height;
-    if (ensure_capacity(s, n))
+    if (ensure_capacity(s, n) || upload_tables(s, d->tables))
         return FP_ERR;
     cl_command_queue q = fp_cl_queue(s->cl);
-    float view[FP_VIEW_FLOATS];
+    float view[FP_VIEW_FLOATS], params[FP_F_COUNT];
     fp_view_pack(v, view);
-    cl_float4 fogp = { { (float)d->sigma, (float)d->y0, (float)d->H, (float)d->top } };
+    for (int i = 0; i < FP_F_COUNT; i++)
+        params[i] = (float)d->fp[i];
     cl_float4 color = { { (float)d->fog_color[0], (float)d->fog_color[1],
                           (float)d->fog_color[2], 0 } };
     cl_int w = v->width, h = v->height;
     if (fp_cl_check(clEnqueueWriteBuffer(q, s->view, CL_FALSE, 0, sizeof view, view, 0, NULL, NULL),
                     "integrate: upload view") ||
+        fp_cl_check(clEnqueueWriteBuffer(q, s->params, CL_FALSE, 0, sizeof params, params, 0, NULL,
+                                         NULL), "integrate: upload parameters") ||
         fp_cl_check(clEnqueueWriteBuffer(q, s->depth, CL_FALSE, 0, n * sizeof(float), depth, 0,
                                          NULL, NULL), "integrate: upload depth"))
         return FP_ERR;
-    if (FP_CL_ARG(s->kernel, 0, s->depth) || FP_CL_ARG(s->kernel, 1, s->fog) ||
-        FP_CL_ARG(s->kernel, 2, s->view) || FP_CL_ARG(s->kernel, 3, w) ||
-        FP_CL_ARG(s->kernel, 4, h) || FP_CL_ARG(s->kernel, 5, fogp) ||
-        FP_CL_ARG(s->kernel, 6, color))
+    cl_kernel k = s->kernel;
+    if (FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->fog) || FP_CL_ARG(k, 2, s->view) ||
+        FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) || FP_CL_ARG(k, 5, s->params) ||
+        FP_CL_ARG(k, 6, s->lvi) || FP_CL_ARG(k, 7, s->lvf) || FP_CL_ARG(k, 8, s->coef) ||
+        FP_CL_ARG(k, 9, s->occ) || FP_CL_ARG(k, 10, color))
         return FP_ERR;
     size_t local[2] = { 16, 8 };
     size_t global[2] = { fp_cl_round_up((size_t)w, local[0]), fp_cl_round_up((size_t)h, local[1]) };
-    if (fp_cl_check(clEnqueueNDRangeKernel(q, s->kernel, 2, NULL, global, local, 0, NULL, NULL),
-                    "integrate_height"))
+    if (fp_cl_check(clEnqueueNDRangeKernel(q, k, 2, NULL, global, local, 0, NULL, NULL),
+                    "integrate_fog"))
         return FP_ERR;
     return fp_cl_check(clEnqueueReadBuffer(q, s->fog, CL_TRUE, 0, n * 4 * sizeof(float), fog, 0,
                                            NULL, NULL), "integrate: read fog");
@@ -193,13 +269,12 @@ int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
 
 void fp_integrate_cl_release(fp_integrate_cl_t *s)
 {
+    cl_mem *mems[] = { &s->depth, &s->fog, &s->view, &s->params, &s->lvi, &s->lvf, &s->coef,
+                       &s->occ };
     if (s->kernel)
         clReleaseKernel(s->kernel);
-    if (s->depth)
-        clReleaseMemObject(s->depth);
-    if (s->fog)
-        clReleaseMemObject(s->fog);
-    if (s->view)
-        clReleaseMemObject(s->view);
+    for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)
+        if (*mems[i])
+            clReleaseMemObject(*mems[i]);
     memset(s, 0, sizeof *s);
 }

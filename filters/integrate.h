@@ -1,7 +1,8 @@
 /* fogpipe stage "integrate": extinction integrated exactly along each view
- * ray, and the fog layer (in-scattered light S, transmittance tau) that the
+ * ray (kernels/fog_core.h, shared by the kernel and the C reference), and
+ * the fog layer (in-scattered light S, transmittance tau) that the
  * composite stage applies.  CPU reference in double (fp_integrate_process),
- * OpenCL (fp_integrate_process_cl, kernels/integrate.cl). */
+ * OpenCL in single precision (fp_integrate_process_cl, kernels/integrate.cl). */
 #ifndef FP_INTEGRATE_H
 #define FP_INTEGRATE_H
 
@@ -9,19 +10,42 @@
 #include "clrt.h"
 #include "params.h"
 
+#define FP_F_COUNT_ 44   /* kernels/fog_core.h FP_F_COUNT */
+#define FP_LEVEL_TABLE 16  /* FP_MAX_LEVELS_ALL */
+
+/* The fogmap as the integrator reads it (filled by the fogmap stage):
+ * per level a table row and coefficients; the last level is the fine grid
+ * (the padded fogmap itself), used by the marching baseline. */
+typedef struct fp_fog_tables_t {
+    int nlevels;                          /* levels summed by the exact integrator */
+    int lvi[FP_LEVEL_TABLE * 8];          /* FP_LI_* rows */
+    double lvf[FP_LEVEL_TABLE * 4];       /* FP_LR_* rows */
+    float *coef;                          /* all levels' coefficients */
+    size_t ncoef;
+    unsigned char *occ;                   /* occupancy blocks of all levels */
+    size_t nocc;
+    unsigned long serial;                 /* unique per table set, so a device copy is
+                                             never mistaken for another's */
+} fp_fog_tables_t;
+
 /* Derived once per run from the parameters (darktable's "commit"). */
 typedef struct fp_integrate_data_t {
-    double sigma;         /* extinction per scene unit at full density */
-    double y0, H, top;    /* height profile: h = 1 below y0, exp(-(y-y0)/H) to top */
+    double fp[FP_F_COUNT_];               /* FP_F_* parameters */
     double fog_color[3];
+    const fp_fog_tables_t *tables;        /* NULL: no fogmap */
 } fp_integrate_data_t;
 
+/* Fill everything but the fogmap-specific entries (fp_fogmap_commit adds
+ * those and sets `tables`). */
 int fp_integrate_commit(const fp_params_t *p, fp_integrate_data_t *d);
 
-/* Optical depth along the ray oy + t dy (dy: the unit direction's y),
- * t in [0, len], len may be INFINITY.  Closed form, double precision. */
-double fp_integrate_optical_depth(const fp_integrate_data_t *d, double oy, double dy,
-                                  double len);
+/* Optical depth along a fog-space ray, t in [0, len] (len may be INFINITY),
+ * in double precision. */
+double fp_integrate_optical_depth(const fp_integrate_data_t *d, const double o[3],
+                                  const double dir[3], double len, double jitter);
+
+/* The per-pixel jitter of --jitter, identical to the kernel's. */
+float fp_integrate_jitter(int x, int y);
 
 /* CPU reference for a whole frame: fog[4*i] = (S.r, S.g, S.b, tau).
  * *suspicious counts NaN/negative depth samples (treated as sky). */
@@ -32,8 +56,9 @@ int fp_integrate_process(const fp_integrate_data_t *d, const fp_view_t *v,
 typedef struct fp_integrate_cl_t {
     fp_cl_t *cl;
     cl_kernel kernel;
-    cl_mem depth, fog, view;
+    cl_mem depth, fog, view, params, lvi, lvf, coef, occ;
     size_t capacity;      /* pixels the buffers hold */
+    unsigned long uploaded;               /* serial of the tables on the device (0: none) */
 } fp_integrate_cl_t;
 
 int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s);

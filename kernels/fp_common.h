@@ -66,10 +66,4 @@ inline float3 fp_view_origin(__constant const float *view)
     return (float3)(view[0], view[1], view[2]);
 }
 
-/* (1 - exp(-x)) / x for x >= 0, without cancellation near 0. */
-inline float fp_expm1_ratio(float x)
-{
-    return x < 1e-3f ? 1.0f - x * (0.5f - x * (1.0f / 6.0f)) : -expm1(-x) / x;
-}
-
 #endif

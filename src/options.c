@@ -13,6 +13,7 @@
 extern const fp_option_t fp_io_options[];
 extern const fp_option_t fp_camera_options[];
 extern const fp_option_t fp_integrate_options[];
+extern const fp_option_t fp_fogmap_options[];
 
 #define CMD(f) offsetof(fp_params_t, cmd.f)
 static const fp_option_t cmd_options[] = {
@@ -37,6 +38,7 @@ const fp_option_group_t fp_option_groups[] = {
     { "Input and output", fp_io_options },
     { "Camera and depth", fp_camera_options },
     { "Fog", fp_integrate_options },
+    { "Fogmap (wavelet fog)", fp_fogmap_options },
     { NULL, NULL }
 };
 

@@ -42,7 +42,32 @@ typedef struct fp_fog_params_t {
     double density;       /* extinction per scene unit */
     double height[3];     /* Y0, H, TOP */
     double color[3];      /* fog color (in-scattered ambient radiance) */
+    double haze;          /* homogeneous haze, extinction per scene unit */
+    double haze_height[3];
+    double box[6];        /* X0,Y0,Z0,X1,Y1,Z1, fog frame */
+    double offset[3];
+    double rotate;        /* degrees about the vertical */
 } fp_fog_params_t;
+
+enum { FP_BASIS_HAAR = 0, FP_BASIS_LINEAR, FP_BASIS_QUADRATIC, FP_BASIS_CUBIC };
+enum { FP_INTEGRATOR_EXACT = 0, FP_INTEGRATOR_MARCH = 1 };
+
+typedef struct fp_fogmap_params_t {
+    char *fogmap;         /* image file */
+    char *channel;
+    double rect[4];       /* A0,B0,A1,B1: world rectangle the fogmap covers */
+    int basis;            /* B-spline degree */
+    int wrap;             /* FP_WRAP_* */
+    int levels;
+    double lod_mu;
+    double lod_footprint; /* pixels */
+    double min_transmittance;
+    int integrator;
+    int steps;
+    int jitter;
+    int sparse;
+    char *preview;        /* directory for --fogmap-preview */
+} fp_fogmap_params_t;
 
 typedef struct fp_cmd_params_t {
     int help;
@@ -56,6 +81,7 @@ typedef struct fp_params_t {
     fp_io_params_t io;
     fp_camera_params_t camera;
     fp_fog_params_t fog;
+    fp_fogmap_params_t fogmap;
     fp_cmd_params_t cmd;
     /* Names of the options the user gave (CLI or preset), for "was this
      * set?" questions such as camera overrides. */

@@ -3,6 +3,7 @@
 #include "clrt.h"
 #include "composite.h"
 #include "exrio.h"
+#include "fogmap.h"
 #include "fp.h"
 #include "integrate.h"
 #include "options.h"
@@ -60,6 +61,7 @@ typedef struct run_t {
     fp_integrate_data_t fog;
     fp_cl_t *cl;
     fp_integrate_cl_t icl;
+    fp_fogmap_stage_t fogmap;
     int use_cl;
 } run_t;
 
@@ -97,6 +99,7 @@ static int process_frame(run_t *r, fp_frame_t *f, const char *in_name, long fram
     fp_view_t view;
     if ((rc = fp_view_setup(&cam, p, info, &view)))
         goto done;
+    fp_fogmap_frame(p, &view, &r->fog);
     size_t n = (size_t)info->width * info->height;
     const float *depth = fp_frame_depth(f);
     float *rgba = fp_frame_rgba(f);
@@ -165,15 +168,22 @@ static int setup(run_t *r)
     return FP_OK;
 }
 
-/* Device and programs only when a frame needs them (not for --print-camera). */
+/* The device, the programs and the fogmap, once per run (not for
+ * --print-camera, which needs none of them). */
 static int open_device(run_t *r)
 {
-    if (!r->use_cl || r->cl || r->p->cmd.print_camera)
+    fp_params_t *p = r->p;
+    if (p->cmd.print_camera)
         return FP_OK;
-    if (fp_cl_open(r->p->io.device, &r->cl))
-        return FP_ERR;
-    fp_info("OpenCL device: %s", fp_cl_device_label(r->cl));
-    return fp_integrate_cl_init(r->cl, &r->icl);
+    if (r->use_cl) {
+        if (fp_cl_open(p->io.device, &r->cl))
+            return FP_ERR;
+        fp_info("OpenCL device: %s", fp_cl_device_label(r->cl));
+        if (fp_integrate_cl_init(r->cl, &r->icl))
+            return FP_ERR;
+    }
+    int active;
+    return fp_fogmap_commit(p, r->cl, &r->fogmap, &r->fog, &active);
 }
 
 static int run_stream_input(run_t *r, const fp_frame_list_t *labels)
@@ -209,14 +219,12 @@ static int run_stream_input(run_t *r, const fp_frame_list_t *labels)
         snprintf(label, sizeof label, "<stdin>");
         if ((rc = fp_exr_read_memory(buf, size, label, frame, &r->sel, &f)))
             break;
-        if ((rc = open_device(r)) == FP_OK) {
-            char opath[4096] = "";
-            if (out_seq)
-                rc = fp_seq_format(p->io.output, frame, opath, sizeof opath);
-            if (rc == FP_OK)
-                rc = process_frame(r, f, label, frame, out_seq ? opath : "<stdout>",
-                                   out_seq ? NULL : stdout);
-        }
+        char opath[4096] = "";
+        if (out_seq)
+            rc = fp_seq_format(p->io.output, frame, opath, sizeof opath);
+        if (rc == FP_OK)
+            rc = process_frame(r, f, label, frame, out_seq ? opath : "<stdout>",
+                               out_seq ? NULL : stdout);
         fp_frame_free(f);
         if (rc)
             break;
@@ -290,9 +298,8 @@ static int run_files(run_t *r)
         }
         if ((rc = fp_exr_read_file(in, frame, &r->sel, &f)))
             break;
-        if ((rc = open_device(r)) == FP_OK)
-            rc = process_frame(r, f, in, frame, out_stream ? "<stdout>" : out,
-                               out_stream ? stdout : NULL);
+        rc = process_frame(r, f, in, frame, out_stream ? "<stdout>" : out,
+                           out_stream ? stdout : NULL);
         fp_frame_free(f);
         fp_info("%s: frame %ld done", in, frame);
     }
@@ -307,6 +314,18 @@ int fp_pipeline_run(fp_params_t *p)
     memset(&r, 0, sizeof r);
     r.p = p;
     int rc = setup(&r);
+    if (rc == FP_OK && p->fogmap.preview) {
+        int active;
+        rc = fp_fogmap_commit(p, NULL, &r.fogmap, &r.fog, &active);
+        if (rc == FP_OK && !active)
+            rc = fp_usage_error("--fogmap-preview needs --fogmap FILE");
+        if (rc == FP_OK)
+            rc = fp_fogmap_preview(&r.fogmap, p->fogmap.preview);
+        fp_fogmap_release(&r.fogmap);
+        return rc;
+    }
+    if (rc == FP_OK)
+        rc = open_device(&r);
     if (rc == FP_OK) {
         if (is_stream(p->io.input)) {
             fp_frame_list_t labels = { NULL, 0 };
@@ -319,6 +338,7 @@ int fp_pipeline_run(fp_params_t *p)
             rc = run_files(&r);
         }
     }
+    fp_fogmap_release(&r.fogmap);
     if (r.cl) {
         fp_integrate_cl_release(&r.icl);
         fp_cl_close(r.cl);

@@ -15,15 +15,7 @@
 #include "camera.h"
 #include "fp.h"
 #include "options.h"
-
-static uint64_t rng = 0x9E3779B97F4A7C15ull;
-static double urand(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return (double)(rng >> 11) / 9007199254740992.0;
-}
+#include "testutil.h"
 
 static void norm(double v[3])
 {

@@ -16,23 +16,28 @@
 #include "fp.h"
 #include "integrate.h"
 #include "options.h"
+#include "testutil.h"
 
-static uint64_t rng = 88172645463325252ull;
-static double urand(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return (double)(rng >> 11) / 9007199254740992.0;
-}
+/* Fog parameters by name, for readability below. */
+#define SIGMA(d) ((d)->fp[0])
+#define Y0(d) ((d)->fp[1])
+#define HS(d) ((d)->fp[2])
+#define TOP(d) ((d)->fp[3])
 
 static double density(const fp_integrate_data_t *d, double y)
 {
-    if (y >= d->top)
+    if (y >= TOP(d))
         return 0;
-    if (y < d->y0)
-        return d->sigma;
-    return d->sigma * exp(-(y - d->y0) / d->H);
+    if (y < Y0(d))
+        return SIGMA(d);
+    return SIGMA(d) * exp(-(y - Y0(d)) / HS(d));
+}
+
+/* Optical depth of a ray that starts at height oy with vertical component dy. */
+static double od(const fp_integrate_data_t *d, double oy, double dy, double len)
+{
+    double o[3] = { 1, oy, 2 }, dir[3] = { sqrt(1 - dy * dy), dy, 0 };
+    return fp_integrate_optical_depth(d, o, dir, len, 0);
 }
 
 /* Independent check: composite Gauss-Legendre (5 nodes) over many panels,
@@ -46,7 +51,7 @@ static double quadrature(const fp_integrate_data_t *d, double oy, double dy, dou
     double cuts[4] = { 0, len, len, len };
     int nc = 2;
     if (dy != 0) {
-        double t0 = (d->y0 - oy) / dy, t1 = (d->top - oy) / dy;
+        double t0 = (Y0(d) - oy) / dy, t1 = (TOP(d) - oy) / dy;
         if (t0 > 0 && t0 < len)
             cuts[nc++] = t0;
         if (isfinite(t1) && t1 > 0 && t1 < len)
@@ -76,13 +81,16 @@ static double quadrature(const fp_integrate_data_t *d, double oy, double dy, dou
 
 static fp_integrate_data_t fog(double sigma, double y0, double H, double top)
 {
+    fp_params_t p;
     fp_integrate_data_t d;
-    memset(&d, 0, sizeof d);
-    d.sigma = sigma;
-    d.y0 = y0;
-    d.H = H;
-    d.top = top;
-    d.fog_color[0] = d.fog_color[1] = d.fog_color[2] = 0.5;
+    fp_options_defaults(&p);
+    p.fog.density = sigma;
+    p.fog.height[0] = y0;
+    p.fog.height[1] = H;
+    p.fog.height[2] = top;
+    p.fog.color[0] = p.fog.color[1] = p.fog.color[2] = 0.5;
+    assert_int_equal(fp_integrate_commit(&p, &d), FP_OK);
+    fp_options_free(&p);
     return d;
 }
 
@@ -91,22 +99,22 @@ static void test_closed_forms(void **state)
     (void)state;
     /* Homogeneous: sigma * L. */
     fp_integrate_data_t h = fog(0.3, 0, INFINITY, INFINITY);
-    assert_double_equal(fp_integrate_optical_depth(&h, 5, 0.3, 10), 3.0, 1e-12);
+    assert_double_equal(od(&h, 5, 0.3, 10), 3.0, 1e-12);
     /* Horizontal ray in the exponential part. */
     fp_integrate_data_t e = fog(0.1, 2, 5, INFINITY);
-    assert_double_equal(fp_integrate_optical_depth(&e, 7, 0, 20), 0.1 * exp(-1.0) * 20, 1e-12);
+    assert_double_equal(od(&e, 7, 0, 20), 0.1 * exp(-1.0) * 20, 1e-12);
     /* Straight up from the base to infinity: sigma * H. */
-    assert_double_equal(fp_integrate_optical_depth(&e, 2, 1, INFINITY), 0.1 * 5, 1e-12);
+    assert_double_equal(od(&e, 2, 1, INFINITY), 0.1 * 5, 1e-12);
     /* Above the top nothing; below the base a sky ray going down is opaque. */
     fp_integrate_data_t t = fog(0.1, 0, 10, 30);
-    assert_double_equal(fp_integrate_optical_depth(&t, 40, 0, 1e6), 0, 0);
-    assert_true(isinf(fp_integrate_optical_depth(&t, 5, -0.1, INFINITY)));
+    assert_double_equal(od(&t, 40, 0, 1e6), 0, 0);
+    assert_true(isinf(od(&t, 5, -0.1, INFINITY)));
     /* A level sky ray inside the exponential part sees infinite fog. */
-    assert_true(isinf(fp_integrate_optical_depth(&e, 3, 0, INFINITY)));
+    assert_true(isinf(od(&e, 3, 0, INFINITY)));
     /* Zero length, zero density. */
-    assert_double_equal(fp_integrate_optical_depth(&e, 3, 0.5, 0), 0, 0);
+    assert_double_equal(od(&e, 3, 0.5, 0), 0, 0);
     fp_integrate_data_t z = fog(0, 0, 10, INFINITY);
-    assert_double_equal(fp_integrate_optical_depth(&z, 3, -1, INFINITY), 0, 0);
+    assert_double_equal(od(&z, 3, -1, INFINITY), 0, 0);
 }
 
 /* Random rays, grazing and level ones included, cameras below, inside and
@@ -129,39 +137,16 @@ static void test_against_quadrature(void **state)
         default: dy = 2 * urand() - 1; break;
         }
         double len = pow(10, -2 + 5 * urand());
-        double a = fp_integrate_optical_depth(&d, oy, dy, len);
+        double a = od(&d, oy, dy, len);
         double b = quadrature(&d, oy, dy, len);
         double err = fabs(a - b) / fmax(1e-300, fmax(fabs(b), 1e-12));
         if (err > worst)
             worst = err;
         if (err > 1e-9)
             fail_msg("ray %d: oy %g dy %g len %g fog (%g,%g,%g,%g): exact %.17g quadrature %.17g",
-                     k, oy, dy, len, d.sigma, d.y0, d.H, d.top, a, b);
+                     k, oy, dy, len, SIGMA(&d), Y0(&d), HS(&d), TOP(&d), a, b);
     }
     print_message("max relative error against quadrature: %.3g\n", worst);
-}
-
-/* A synthetic frame: a wide camera with random pitch, random depths
- * (log-uniform), sky and NaN samples, for the CL/C comparison. */
-static void make_view(fp_view_t *v, int w, int h, double cam_y, double pitch_deg)
-{
-    fp_params_t p;
-    fp_options_defaults(&p);
-    fp_frame_info_t info;
-    memset(&info, 0, sizeof info);
-    info.width = info.disp_w = w;
-    info.height = info.disp_h = h;
-    info.pixel_aspect = 1;
-    fp_options_apply(&p, "camera-pos", "3,0,-7", "test");
-    char rot[64], vfov[] = "150";
-    snprintf(rot, sizeof rot, "%g,25,0", pitch_deg);
-    fp_options_apply(&p, "camera-rot", rot, "test");
-    fp_options_apply(&p, "vfov", vfov, "test");
-    p.camera.pos[1] = cam_y;
-    fp_camera_t c;
-    assert_int_equal(fp_camera_resolve(&p, &info, "synthetic", 1, &c), FP_OK);
-    assert_int_equal(fp_view_setup(&c, &p, &info, v), FP_OK);
-    fp_options_free(&p);
 }
 
 static void test_opencl_parity(void **state)
@@ -184,7 +169,7 @@ static void test_opencl_parity(void **state)
     for (int ci = 0; ci < 4; ci++)
         for (int fi = 0; fi < 3; fi++) {
             fp_view_t v;
-            make_view(&v, w, h, cams[ci][0], cams[ci][1]);
+            assert_int_equal(make_view(&v, w, h, cams[ci][0], cams[ci][1]), 0);
             fp_integrate_data_t d = fog(fogs[fi][0], fogs[fi][1], fogs[fi][2], fogs[fi][3]);
             for (size_t i = 0; i < n; i++) {
                 double u = urand();

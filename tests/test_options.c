@@ -13,6 +13,7 @@
 
 #include "fp.h"
 #include "options.h"
+#include "testutil.h"
 
 static int parse(fp_params_t *p, int argc, const char **argv)
 {

@@ -1,0 +1,328 @@
+#include "fogmap.h"
+#include "fp.h"
+#include "oiio_bridge.h"
+#include "options.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#include "../kernels/fog_core.h"
+
+#define FM(f) offsetof(fp_params_t, fogmap.f)
+const fp_option_t fp_fogmap_options[] = {
+    { "fogmap", 0, FP_OPT_STRING, FM(fogmap), 0, 0, NULL, 0, 0, NULL, "FILE",
+      "greyscale fogmap (any image OpenImageIO reads; values are data, integers map to 0..1): "
+      "the fog seen from above, scaling --density", NULL, 0 },
+    { "fogmap-channel", 0, FP_OPT_STRING, FM(channel), 0, 0, NULL, 0, 0, NULL, "NAME",
+      "channel of the fogmap to use (default: the first)", NULL, 0 },
+    { "fog-rect", 0, FP_OPT_VEC, FM(rect), 4, 4, "-50,-50,50,50", -1e9, 1e9, NULL, "A0,B0,A1,B1",
+      "world rectangle the fogmap covers on the horizontal axes: X0,Z0,X1,Z1 (--up y, row 0 "
+      "at Z0) or X0,Y0,X1,Y1 (--up z, row 0 at Y1)", NULL, 0 },
+    { "basis", 0, FP_OPT_ENUM, FM(basis), 0, 0, "linear", 0, 0, "haar|linear|quadratic|cubic",
+      NULL, "B-spline basis of the fogmap (degree 0..3; linear = bilinear between pixel "
+      "centers)", NULL, 0 },
+    { "fog-wrap", 0, FP_OPT_ENUM, FM(wrap), 0, 0, "zero", 0, 0, "zero|clamp|repeat", NULL,
+      "the fogmap outside its rectangle: no fog, its edge extended, or tiled", NULL, 0 },
+    { "levels", 0, FP_OPT_INT, FM(levels), 0, 0, "3", 0, 12, NULL, "N",
+      "wavelet detail levels over the coarse approximation", NULL, 0 },
+    { "lod-mu", 0, FP_OPT_REAL, FM(lod_mu), 0, 0, "1", 0, 1, NULL, "MU",
+      "level of detail: level l is integrated only up to |OP| MU^l (seed 000 eq. 12; 1 = all)",
+      NULL, 0 },
+    { "lod-footprint", 0, FP_OPT_REAL, FM(lod_footprint), 0, 0, "0", 0, 1e4, NULL, "PX",
+      "drop a detail level where its cells project below PX pixels (0 = off)", NULL, 0 },
+    { "min-transmittance", 0, FP_OPT_REAL, FM(min_transmittance), 0, 0, "0", 0, 1, NULL, "T",
+      "stop integrating a ray once its transmittance is below T (0 = never)", NULL, 0 },
+    { "integrator", 0, FP_OPT_ENUM, FM(integrator), 0, 0, "exact", 0, 0, "exact|march", NULL,
+      "exact cell-by-cell integration, or the uniform raymarching baseline (seed 002 sec. 4.2)",
+      NULL, 0 },
+    { "steps", 0, FP_OPT_INT, FM(steps), 0, 0, "64", 1, 1 << 20, NULL, "N",
+      "raymarching steps per ray (--integrator march)", NULL, 0 },
+    { "jitter", 0, FP_OPT_FLAG, FM(jitter), 0, 0, NULL, 0, 1, NULL, NULL,
+      "offset the march samples per pixel (the same pattern every frame)", NULL, 0 },
+    { "sparse", 0, FP_OPT_ENUM, FM(sparse), 0, 0, "on", 0, 0, "off|on", NULL,
+      "skip blocks of zero coefficients while walking the grid (exact)", NULL, 0 },
+    { "fogmap-preview", 0, FP_OPT_STRING, FM(preview), 0, 0, NULL, 0, 0, NULL, "DIR",
+      "write one PNG per wavelet level and the reconstructed fogmap into DIR, then exit", NULL,
+      FP_OPTF_CLI_ONLY },
+    FP_OPT_END
+};
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+/* Largest of 8, 4, 2, 1 dividing both sizes: occupancy blocks must tile the
+ * periodic grid. */
+static int block_size(int nx, int ny)
+{
+    int b = 8;
+    while (b > 1 && (nx % b || ny % b))
+        b /= 2;
+    return b;
+}
+
+/* A block of cells is empty when every coefficient whose support reaches
+ * it is zero: cells K use coefficients K - d/2 .. K - d/2 + d. */
+static void occupancy(const fp_fog_level_t *lv, int d, int block, unsigned char *occ)
+{
+    int bx = lv->nx / block, by = lv->ny / block, half = d / 2;
+    for (int j = 0; j < by; j++)
+        for (int i = 0; i < bx; i++) {
+            int any = 0;
+            for (int m = j * block - half; m <= j * block + block - 1 - half + d && !any; m++)
+                for (int k = i * block - half; k <= i * block + block - 1 - half + d && !any; k++) {
+                    int kw = ((k % lv->nx) + lv->nx) % lv->nx, mw = ((m % lv->ny) + lv->ny) % lv->ny;
+                    any = lv->coef[(size_t)mw * lv->nx + kw] != 0;
+                }
+            occ[j * bx + i] = (unsigned char)any;
+        }
+}
+
+/* The fogmap on the padded domain, for the marching baseline: zeros or the
+ * edge repeated around it, as the decomposition padded it. */
+static float *padded_fine(const float *img, const fp_fogmap_t *m)
+{
+    float *g = calloc((size_t)m->dom_w * m->dom_h, sizeof *g);
+    if (!g)
+        return NULL;
+    for (int y = 0; y < m->dom_h; y++)
+        for (int x = 0; x < m->dom_w; x++) {
+            int i = x - m->pad_x0, j = y - m->pad_y0;
+            if (m->wrap == FP_WRAP_CLAMP) {
+                i = i < 0 ? 0 : i >= m->width ? m->width - 1 : i;
+                j = j < 0 ? 0 : j >= m->height ? m->height - 1 : j;
+            } else if (i < 0 || j < 0 || i >= m->width || j >= m->height) {
+                continue;
+            }
+            g[(size_t)y * m->dom_w + x] = img[(size_t)j * m->width + i];
+        }
+    return g;
+}
+
+static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_fog,
+                        fp_fog_tables_t *t)
+{
+    memset(t, 0, sizeof *t);
+    int nl = m->num_levels;
+    fp_fog_level_t fine = { m->dom_w, m->dom_h, 1, 0.5, 0.5, 0, NULL };
+    size_t ncoef = (size_t)m->dom_w * m->dom_h, nocc = 0;
+    for (int l = 0; l < nl; l++) {
+        const fp_fog_level_t *lv = &m->level[l];
+        int b = block_size(lv->nx, lv->ny);
+        ncoef += (size_t)lv->nx * lv->ny;
+        nocc += (size_t)(lv->nx / b) * (lv->ny / b);
+    }
+    t->coef = malloc(ncoef * sizeof(float));
+    t->occ = malloc(nocc + 1);
+    fine.coef = padded_fine(img, m);
+    if (!t->coef || !t->occ || !fine.coef) {
+        free(fine.coef);
+        return fp_error("fogmap: out of memory");
+    }
+    size_t co = 0, oo = 0;
+    for (int l = 0; l <= nl; l++) {
+        const fp_fog_level_t *lv = l < nl ? &m->level[l] : &fine;
+        int b = block_size(lv->nx, lv->ny);
+        int *li = t->lvi + l * FP_LI_STRIDE;
+        double *lr = t->lvf + l * FP_LR_STRIDE;
+        li[FP_LI_NX] = lv->nx;
+        li[FP_LI_NY] = lv->ny;
+        li[FP_LI_COEF] = (int)co;
+        li[FP_LI_OCC] = (int)oo;
+        li[FP_LI_BLOCK] = b;
+        lr[FP_LR_CELL] = lv->cell;
+        lr[FP_LR_ORIGIN_U] = lv->origin_u;
+        lr[FP_LR_ORIGIN_V] = lv->origin_v;
+        lr[FP_LR_LOD_DIST] = lv->cell * cell_to_fog;
+        memcpy(t->coef + co, lv->coef, (size_t)lv->nx * lv->ny * sizeof(float));
+        co += (size_t)lv->nx * lv->ny;
+        if (l < nl) {
+            occupancy(lv, m->degree, b, t->occ + oo);
+            oo += (size_t)(lv->nx / b) * (lv->ny / b);
+        }
+    }
+    free(fine.coef);
+    static _Atomic unsigned long serial;
+    t->serial = ++serial;
+    t->nlevels = nl;
+    t->ncoef = ncoef;
+    t->nocc = nocc + 1;
+    return FP_OK;
+}
+
+int fp_fogmap_commit(const fp_params_t *p, fp_cl_t *cl, fp_fogmap_stage_t *s,
+                     fp_integrate_data_t *d, int *active)
+{
+    const fp_fogmap_params_t *fm = &p->fogmap;
+    memset(s, 0, sizeof *s);
+    *active = 0;
+    if (!fm->fogmap)
+        return FP_OK;
+    const double *r = fm->rect;
+    if (!(r[2] > r[0]) || !(r[3] > r[1]))
+        return fp_usage_error("--fog-rect: expected A0 < A1 and B0 < B1, got %g,%g,%g,%g",
+                              r[0], r[1], r[2], r[3]);
+    float *img = NULL;
+    int w, h, rc;
+    if ((rc = fp_oiio_read_channel(fm->fogmap, fm->channel, &img, &w, &h)))
+        return rc;
+    rc = fp_fogmap_setup(p, cl, img, w, h, s, d);
+    free(img);
+    if (rc == FP_OK)
+        *active = 1;
+    return rc;
+}
+
+int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, int h,
+                    fp_fogmap_stage_t *s, fp_integrate_data_t *d)
+{
+    const fp_fogmap_params_t *fm = &p->fogmap;
+    const double *r = fm->rect;
+    int rc;
+    memset(s, 0, sizeof *s);
+    for (size_t i = 0; i < (size_t)w * h; i++)
+        if (!(img[i] >= 0) || isinf(img[i]))
+            return fp_error("%s: pixel (%zu, %zu) is %g (expected finite values >= 0)",
+                            fm->fogmap, i % (size_t)w, i / (size_t)w, img[i]);
+    double t0 = now_ms();
+    rc = FP_ERR;
+    if (cl) {
+        rc = fp_wavelet_decompose_cl(cl, img, w, h, fm->basis, fm->levels, fm->wrap, &s->map);
+        if (rc)
+            fp_warn("%s: OpenCL decomposition failed; using the C reference", fm->fogmap);
+        s->used_cl = rc == FP_OK;
+    }
+    if (rc)
+        rc = fp_wavelet_decompose(img, w, h, fm->basis, fm->levels, fm->wrap, &s->map);
+    s->decompose_ms = now_ms() - t0;
+    if (rc)
+        return rc;
+    const fp_fogmap_t *m = &s->map;
+    if (m->levels < fm->levels)
+        fp_warn("%s: %dx%d with --fog-wrap repeat allows %d levels (2^levels must divide the "
+                "size), not %d", fm->fogmap, w, h, m->levels, fm->levels);
+    fp_info("%s: %dx%d, %d levels, decomposed in %.1f ms (%s)", fm->fogmap, w, h, m->levels,
+            s->decompose_ms, s->used_cl ? "OpenCL" : "C");
+
+    /* Fog-space rectangle: with --up z fog z is -world y, so the rows that
+     * run from Y1 (row 0) down to Y0 run along +z from -Y1. */
+    double a0 = r[0], b0 = r[1], a1 = r[2], b1 = r[3];
+    if (p->camera.up == FP_UP_Z) {
+        b0 = -r[3];
+        b1 = -r[1];
+    }
+    double *v = d->fp;
+    int deg = m->degree;
+    v[FP_F_USCALE] = w / (a1 - a0);
+    v[FP_F_VSCALE] = h / (b1 - b0);
+    v[FP_F_A0] = a0;
+    v[FP_F_B0] = b0;
+    v[FP_F_PAD_X0] = m->pad_x0;
+    v[FP_F_PAD_Y0] = m->pad_y0;
+    /* ZERO: F vanishes beyond (d+1)/2 pixels of the edge; CLAMP: F stops
+     * changing beyond d/2 pixels (filters/wavelet.h). */
+    double reach = m->wrap == FP_WRAP_ZERO ? (deg + 1) / 2.0 : deg / 2.0;
+    v[FP_F_CLIP] = m->pad_x0 - reach;
+    v[FP_F_CLIP + 1] = m->pad_x0 + w + reach;
+    v[FP_F_CLIP + 2] = m->pad_y0 - reach;
+    v[FP_F_CLIP + 3] = m->pad_y0 + h + reach;
+    v[FP_F_DEGREE] = deg;
+    v[FP_F_WRAP] = m->wrap;
+    v[FP_F_NLEVELS] = m->num_levels;
+    v[FP_F_LOD_MU] = fm->lod_mu;
+    v[FP_F_OD_MAX] = fm->min_transmittance > 0 ? -log(fm->min_transmittance) : INFINITY;
+    /* Unbounded rays (clamp, repeat) that never leave the fog: integrate
+     * 64 fogmap widths, far past any transmittance that shows. */
+    v[FP_F_CAP] = 64 * fmax((a1 - a0), (b1 - b0));
+    v[FP_F_MODE] = fm->integrator;
+    v[FP_F_STEPS] = fm->steps;
+    v[FP_F_JITTER] = fm->jitter;
+    v[FP_F_SPARSE] = fm->sparse;
+    v[FP_F_HAS_MAP] = 1;
+    double cell_to_fog = 1.0 / fmax(v[FP_F_USCALE], v[FP_F_VSCALE]);
+    if ((rc = build_tables(m, img, cell_to_fog, &s->tables)))
+        return rc;
+    d->tables = &s->tables;
+    return FP_OK;
+}
+
+void fp_fogmap_frame(const fp_params_t *p, const fp_view_t *v, fp_integrate_data_t *d)
+{
+    /* Angle of one pixel at the image center, from the NDC->camera map. */
+    double pixel = fabs(v->h[4] * v->ndc_scale[1]);
+    d->fp[FP_F_FOOTPRINT] = p->fogmap.lod_footprint * pixel;
+}
+
+static int write_grey(const char *dir, const char *name, const float *data, int w, int h,
+                      double lo, double hi)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    float *g = malloc((size_t)w * h * sizeof *g);
+    if (!g)
+        return fp_error("out of memory");
+    for (size_t i = 0; i < (size_t)w * h; i++)
+        g[i] = hi > lo ? (float)((data[i] - lo) / (hi - lo)) : 0.0f;
+    int rc = fp_oiio_write_preview(path, g, w, h, 1, 16, 0);
+    free(g);
+    return rc;
+}
+
+int fp_fogmap_preview(const fp_fogmap_stage_t *s, const char *dir)
+{
+    const fp_fogmap_t *m = &s->map;
+    if (mkdir(dir, 0777) != 0 && errno != EEXIST)
+        return fp_error("%s: cannot create directory (%s)", dir, strerror(errno));
+    int rc = FP_OK;
+    /* Levels: the coarse one from 0 to its maximum, details signed around
+     * mid-grey so that positive and negative detail both show. */
+    for (int l = 0; l < m->num_levels && rc == FP_OK; l++) {
+        const fp_fog_level_t *lv = &m->level[l];
+        double amax = 0;
+        for (size_t i = 0; i < (size_t)lv->nx * lv->ny; i++)
+            amax = fmax(amax, fabs(lv->coef[i]));
+        char name[64];
+        snprintf(name, sizeof name, "level%02d.png", l);
+        rc = l == 0 ? write_grey(dir, name, lv->coef, lv->nx, lv->ny, 0, amax)
+                    : write_grey(dir, name, lv->coef, lv->nx, lv->ny, -amax, amax);
+        if (rc == FP_OK)
+            printf("%s/%s: level %d, %dx%d coefficients, cell %g px, %s\n", dir, name, l, lv->nx,
+                   lv->ny, lv->cell, l == 0 ? "coarse approximation (0..max)"
+                                            : "details (mid-grey = 0, +-max)");
+    }
+    if (rc)
+        return rc;
+    /* The reconstructed fogmap: the sum of all level surfaces at the
+     * fogmap's pixel centers. */
+    float *rec = malloc((size_t)m->width * m->height * sizeof *rec);
+    if (!rec)
+        return fp_error("out of memory");
+    double hi = 0;
+    for (int j = 0; j < m->height; j++)
+        for (int i = 0; i < m->width; i++) {
+            double f = fp_fogmap_eval(m, m->pad_x0 + i + 0.5, m->pad_y0 + j + 0.5, m->levels);
+            rec[(size_t)j * m->width + i] = (float)f;
+            hi = fmax(hi, f);
+        }
+    rc = write_grey(dir, "reconstructed.png", rec, m->width, m->height, 0, hi);
+    if (rc == FP_OK)
+        printf("%s/reconstructed.png: the sum of all levels at the pixel centers, %dx%d (0..%g)\n",
+               dir, m->width, m->height, hi);
+    free(rec);
+    return rc;
+}
+
+void fp_fogmap_release(fp_fogmap_stage_t *s)
+{
+    fp_fogmap_free(&s->map);
+    free(s->tables.coef);
+    free(s->tables.occ);
+    memset(s, 0, sizeof *s);
+}

@@ -1,0 +1,533 @@
+/* fogpipe: the fog integrals along one view ray, written once and compiled
+ * twice: as OpenCL C in single precision (kernels/integrate.cl) and as C in
+ * double precision (filters/integrate.c, the reference).  The two differ in
+ * precision and in quadrature order only (FP_GL_EXTRA, FP_EXP_STEP); the
+ * logic is judged by brute-force quadrature of the fog's definition in the
+ * tests (tests/test_integrate.c, tests/test_fogmap.c).
+ *
+ * Fog model (DESIGN.md, Conventions):
+ *   sigma_t(p) = sigma F(u,v) h(y) + sigma_haze h_haze(y)
+ * F: B-spline surface of degree d over the fogmap (a sum of one surface per
+ * wavelet level, seed 000 sec. 4.4), h: 1 below Y0, exp(-(y-Y0)/H) above,
+ * 0 above TOP.  Along a ray, within one cell of one level, F is a
+ * polynomial of degree 2d in t and h an exponential, so each cell's
+ * integral is Gauss-Legendre exact for the polynomial part (DESIGN,
+ * Exactness); the exponential is kept smooth by splitting where it varies. */
+#ifndef FP_FOG_CORE_H
+#define FP_FOG_CORE_H
+
+#ifdef __OPENCL_VERSION__
+typedef float fp_real;
+#define FP_CONSTANT __constant
+#define FP_TABLE __constant
+#define FP_GLOBAL __global
+#define FP_FN inline
+#define FP_INF INFINITY
+#ifndef FP_GL_EXTRA
+#define FP_GL_EXTRA 0
+#endif
+#ifndef FP_EXP_STEP
+#define FP_EXP_STEP 0.5f
+#endif
+#else
+#include <math.h>
+typedef double fp_real;
+#define FP_CONSTANT const
+#define FP_TABLE static const
+#define FP_GLOBAL
+#define FP_FN static inline
+#define FP_INF INFINITY
+#ifndef FP_GL_EXTRA
+#define FP_GL_EXTRA 2
+#endif
+#ifndef FP_EXP_STEP
+#define FP_EXP_STEP 0.25
+#endif
+#endif
+
+#define FP_REAL fp_real
+#include "bspline.h"
+
+/* Layout of the fog parameter array (filled by fp_fog_pack in
+ * filters/integrate.c). */
+#define FP_F_SIGMA 0
+#define FP_F_Y0 1
+#define FP_F_H 2
+#define FP_F_TOP 3
+#define FP_F_OFF 4        /* 3: fog offset */
+#define FP_F_COS 7        /* rotation about the vertical axis */
+#define FP_F_SIN 8
+#define FP_F_USCALE 9     /* fogmap pixels per fog unit, along x and z */
+#define FP_F_VSCALE 10
+#define FP_F_A0 11        /* fog rectangle origin (fog-local x, z) */
+#define FP_F_B0 12
+#define FP_F_PAD_X0 13    /* fogmap pixel (0,0) in the padded domain */
+#define FP_F_PAD_Y0 14
+#define FP_F_CLIP 15      /* 4: U0, U1, V0, V1: clip (zero) or clamp box, domain pixels */
+#define FP_F_BOX 19       /* 6: fog box, fog-local */
+#define FP_F_DEGREE 25
+#define FP_F_WRAP 26      /* 0 zero, 1 clamp, 2 repeat */
+#define FP_F_NLEVELS 27
+#define FP_F_LOD_MU 28
+#define FP_F_OD_MAX 29    /* early termination: -ln(min transmittance) */
+#define FP_F_CAP 30       /* longest integration for unbounded rays */
+#define FP_F_HAZE 31      /* 4: sigma, Y0, H, TOP of the homogeneous haze */
+#define FP_F_MODE 35      /* 0 exact, 1 march */
+#define FP_F_STEPS 36
+#define FP_F_JITTER 37
+#define FP_F_SPARSE 38
+#define FP_F_HAS_MAP 39
+#define FP_F_FOOTPRINT 40 /* --lod-footprint pixels times the angle of one pixel */
+#define FP_F_COUNT 44
+
+/* Per level: ints and reals. */
+#define FP_LI_NX 0
+#define FP_LI_NY 1
+#define FP_LI_COEF 2      /* offset into the coefficient buffer */
+#define FP_LI_OCC 3       /* offset into the occupancy buffer */
+#define FP_LI_BLOCK 4     /* cells per occupancy block (divides nx and ny) */
+#define FP_LI_STRIDE 8
+#define FP_LR_CELL 0      /* cell size in domain pixels */
+#define FP_LR_ORIGIN_U 1  /* basis (i,j) centered at origin + cell*(i,j) */
+#define FP_LR_ORIGIN_V 2
+#define FP_LR_LOD_DIST 3  /* cell size in fog units: dropped beyond cell / FP_F_FOOTPRINT */
+#define FP_LR_STRIDE 4
+#define FP_MAX_LEVELS_ALL 16   /* levels + coarse + the fine grid for marching */
+
+/* Gauss-Legendre nodes and weights on [0,1], n = 1..8. */
+FP_TABLE fp_real fp_gl_x[36] = {
+    0.5,
+    0.21132486540518713, 0.78867513459481287,
+    0.11270166537925831, 0.5, 0.88729833462074169,
+    0.069431844202973713, 0.33000947820757187, 0.66999052179242813, 0.93056815579702629,
+    0.046910077030668004, 0.23076534494715845, 0.5, 0.76923465505284155, 0.95308992296933200,
+    0.033765242898423987, 0.16939530676686775, 0.38069040695840155, 0.61930959304159845,
+    0.83060469323313225, 0.96623475710157601,
+    0.025446043828620738, 0.12923440720030277, 0.29707742431130142, 0.5, 0.70292257568869858,
+    0.87076559279969723, 0.97455395617137926,
+    0.019855071751231856, 0.10166676129318664, 0.23723379504183550, 0.40828267875217510,
+    0.59171732124782490, 0.76276620495816450, 0.89833323870681336, 0.98014492824876814 };
+FP_TABLE fp_real fp_gl_w[36] = {
+    1.0,
+    0.5, 0.5,
+    0.27777777777777778, 0.44444444444444444, 0.27777777777777778,
+    0.17392742256872693, 0.32607257743127307, 0.32607257743127307, 0.17392742256872693,
+    0.11846344252809454, 0.23931433524968324, 0.28444444444444444, 0.23931433524968324,
+    0.11846344252809454,
+    0.085662246189585173, 0.18038078652406930, 0.23395696728634553, 0.23395696728634553,
+    0.18038078652406930, 0.085662246189585173,
+    0.064742483084434847, 0.13985269574463833, 0.19091502525255947, 0.20897959183673469,
+    0.19091502525255947, 0.13985269574463833, 0.064742483084434847,
+    0.050614268145188130, 0.11119051722668724, 0.15685332293894364, 0.18134189168918099,
+    0.18134189168918099, 0.15685332293894364, 0.11119051722668724, 0.050614268145188130 };
+#define FP_GL_FIRST(n) (((n) - 1) * (n) / 2)
+
+/* (1 - exp(-x)) / x for x >= 0, without cancellation near 0. */
+FP_FN fp_real fp_expm1_ratio(fp_real x)
+{
+    return x < (fp_real)1e-3 ? (fp_real)1 - x * ((fp_real)0.5 - x * ((fp_real)1 / 6))
+                             : -expm1(-x) / x;
+}
+
+/* The t-interval [*a, *b] within [0, len] where lo <= oy + t dy < hi. */
+FP_FN int fp_slab(fp_real oy, fp_real dy, fp_real lo, fp_real hi, fp_real len,
+                  fp_real *a, fp_real *b)
+{
+    fp_real t0, t1;
+    if (dy == 0) {
+        if (oy < lo || oy >= hi)
+            return 0;
+        t0 = 0;
+        t1 = len;
+    } else {
+        fp_real u = (lo - oy) / dy, v = (hi - oy) / dy;
+        t0 = fmax(fmin(u, v), (fp_real)0);
+        t1 = fmin(fmax(u, v), len);
+    }
+    *a = t0;
+    *b = t1;
+    return t1 > t0;
+}
+
+/* Optical depth of sigma h(y) along oy + t dy, t in [0, len] (len may be
+ * infinite), in closed form. */
+FP_FN fp_real fp_height_od(fp_real sigma, fp_real y0, fp_real H, fp_real top,
+                           fp_real oy, fp_real dy, fp_real len)
+{
+    fp_real od = 0, a, b;
+    if (sigma <= 0)
+        return 0;
+    if (fp_slab(oy, dy, -FP_INF, fmin(y0, top), len, &a, &b))
+        od += b - a;
+    if (fp_slab(oy, dy, y0, top, len, &a, &b)) {
+        /* Heights in units of H above the base: the integral of exp(-y)
+         * from the lowest point m over a rise D is exp(-m)(1 - exp(-D)). */
+        fp_real ya = (oy + a * dy - y0) / H;
+        if (isinf(b)) {
+            if (dy > 0)
+                od += exp(-ya) * H / dy;
+            else if (exp(-ya) > 0)
+                od = FP_INF;
+        } else {
+            fp_real D = fabs(dy) * (b - a) / H;
+            fp_real m = dy < 0 ? ya - D : ya;
+            od += (b - a) * exp(-m) * fp_expm1_ratio(D);
+        }
+    }
+    return sigma * od;
+}
+
+/* Knot interval of level coordinate x (basis i centered at x = i): knots at
+ * integers for odd degree, at half-integers for even degree (kappa = 1/2).
+ * On a knot, a ray moving down enters the interval below.  Coefficients of
+ * interval k: k - d/2 ... k - d/2 + d (kernels/bspline.h). */
+FP_FN int fp_cell_of(fp_real x, fp_real dxdt)
+{
+    fp_real f = floor(x);
+    if (dxdt < 0 && f == x)
+        f -= 1;
+    return (int)f;
+}
+
+FP_FN int fp_wrap_index(int i, int n)
+{
+    int r = i % n;
+    return r < 0 ? r + n : r;
+}
+
+/* A straight piece of the path in domain coordinates: U(t) = u0 + t du,
+ * V(t) = v0 + t dv, height y(t) = y0 + t dy (fog-local). */
+typedef struct fp_path_t {
+    fp_real u0, du, v0, dv, oy, dy;
+} fp_path_t;
+
+/* Integral over [a, b] of the level's surface times h(y(t)), inside one
+ * knot interval (k, m), by Gauss-Legendre: n = d+1 nodes are exact below
+ * Y0 (degree 2d), d+2 (+FP_GL_EXTRA) above it, where the exponential is
+ * split so that it changes by at most exp(FP_EXP_STEP) per piece. */
+FP_FN fp_real fp_cell_integral(FP_CONSTANT const fp_real *fp, int d, const fp_real *c,
+                               fp_real xs, fp_real dxdt, fp_real ys, fp_real dydt,
+                               int k, int m, const fp_path_t *p, fp_real a, fp_real b)
+{
+    fp_real y0 = fp[FP_F_Y0], H = fp[FP_F_H];
+    fp_real sum = 0;
+    /* Below Y0 (h = 1) and above it (exponential). */
+    fp_real ta = a, tb = b, tc;
+    if (p->dy == 0)
+        tc = p->oy < y0 ? b : a;
+    else
+        tc = fmin(fmax((y0 - p->oy) / p->dy, a), b);
+    for (int part = 0; part < 2; part++) {
+        fp_real s0 = part == 0 ? ta : tc, s1 = part == 0 ? tc : tb;
+        if (!(s1 > s0))
+            continue;
+        fp_real ymid = p->oy + (fp_real)0.5 * (s0 + s1) * p->dy;
+        int below = ymid < y0;
+        int n = d + 1 + (below ? 0 : 1) + FP_GL_EXTRA;
+        int pieces = 1;
+        if (!below && isfinite(H)) {
+            fp_real change = fabs(p->dy) * (s1 - s0) / H;
+            pieces = (int)ceil(change / FP_EXP_STEP);
+            pieces = pieces < 1 ? 1 : pieces > 256 ? 256 : pieces;
+        }
+        fp_real step = (s1 - s0) / pieces;
+        for (int q = 0; q < pieces; q++) {
+            fp_real q0 = s0 + q * step;
+            fp_real acc = 0;
+            for (int g = 0; g < n; g++) {
+                fp_real t = q0 + step * fp_gl_x[FP_GL_FIRST(n) + g];
+                fp_real wu[4], wv[4];
+                fp_bspline_weights(d, xs + t * dxdt - k, wu);
+                fp_bspline_weights(d, ys + t * dydt - m, wv);
+                fp_real f = 0;
+                for (int j = 0; j <= d; j++) {
+                    fp_real row = 0;
+                    for (int i = 0; i <= d; i++)
+                        row += c[j * 4 + i] * wu[i];
+                    f += row * wv[j];
+                }
+                fp_real h = below ? (fp_real)1 : exp(-(p->oy + t * p->dy - y0) / H);
+                acc += fp_gl_w[FP_GL_FIRST(n) + g] * f * h;
+            }
+            sum += acc * step;
+        }
+    }
+    return sum;
+}
+
+/* One level's contribution over [a, b]: walk the knot intervals the path
+ * crosses (2D DDA), each with the (d+1)^2 coefficients whose support
+ * reaches it, skipping occupancy blocks that hold only zeros. */
+FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                                FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                                FP_GLOBAL const unsigned char *occ, int l,
+                                const fp_path_t *p, fp_real a, fp_real b)
+{
+    int d = (int)fp[FP_F_DEGREE];
+    int nx = lvi[l * FP_LI_STRIDE + FP_LI_NX], ny = lvi[l * FP_LI_STRIDE + FP_LI_NY];
+    int block = lvi[l * FP_LI_STRIDE + FP_LI_BLOCK];
+    FP_GLOBAL const float *cf = coef + lvi[l * FP_LI_STRIDE + FP_LI_COEF];
+    FP_GLOBAL const unsigned char *oc = occ + lvi[l * FP_LI_STRIDE + FP_LI_OCC];
+    fp_real cell = lvf[l * FP_LR_STRIDE + FP_LR_CELL];
+    fp_real kappa = (d & 1) ? (fp_real)0 : (fp_real)0.5;
+    /* Level coordinates: basis i centered at x = i, knots shifted by kappa. */
+    fp_real xs = (p->u0 - lvf[l * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cell + kappa;
+    fp_real ys = (p->v0 - lvf[l * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cell + kappa;
+    fp_real dxdt = p->du / cell, dydt = p->dv / cell;
+    int sx = dxdt > 0 ? 1 : -1, sy = dydt > 0 ? 1 : -1;
+    int bx = nx / block;
+    int sparse = fp[FP_F_SPARSE] != 0;
+    fp_real t = a, sum = 0;
+    int k = fp_cell_of(xs + t * dxdt, dxdt), m = fp_cell_of(ys + t * dydt, dydt);
+    int first = d / 2;
+    for (int guard = 0; t < b && guard < (1 << 22); guard++) {
+        fp_real tx = dxdt > 0 ? (k + 1 - xs) / dxdt : dxdt < 0 ? (k - xs) / dxdt : FP_INF;
+        fp_real ty = dydt > 0 ? (m + 1 - ys) / dydt : dydt < 0 ? (m - ys) / dydt : FP_INF;
+        fp_real tn = fmin(fmin(tx, ty), b);
+        if (tn < t)
+            tn = t;
+        int kw = fp_wrap_index(k, nx), mw = fp_wrap_index(m, ny);
+        if (sparse && !oc[(mw / block) * bx + kw / block]) {
+            /* Jump to where the path leaves this empty block. */
+            int kb = k - (kw % block), mb = m - (mw % block);
+            fp_real ex = dxdt > 0 ? (kb + block - xs) / dxdt : dxdt < 0 ? (kb - xs) / dxdt : FP_INF;
+            fp_real ey = dydt > 0 ? (mb + block - ys) / dydt : dydt < 0 ? (mb - ys) / dydt : FP_INF;
+            fp_real te = fmin(fmin(ex, ey), b);
+            if (te <= t)
+                te = tn;
+            t = te;
+            if (t >= b)
+                break;
+            k = fp_cell_of(xs + t * dxdt, dxdt);
+            m = fp_cell_of(ys + t * dydt, dydt);
+            /* The crossing lands exactly on the block edge: step over it. */
+            if (ex <= ey && dxdt != 0)
+                k = dxdt > 0 ? kb + block : kb - 1;
+            if (ey <= ex && dydt != 0)
+                m = dydt > 0 ? mb + block : mb - 1;
+            continue;
+        }
+        if (tn > t) {
+            fp_real c[16];
+            int nz = 0;
+            for (int j = 0; j <= d; j++)
+                for (int i = 0; i <= d; i++) {
+                    float v = cf[fp_wrap_index(m - first + j, ny) * nx +
+                                 fp_wrap_index(k - first + i, nx)];
+                    c[j * 4 + i] = v;
+                    nz |= v != 0;
+                }
+            if (nz)
+                sum += fp_cell_integral(fp, d, c, xs, dxdt, ys, dydt, k, m, p, t, tn);
+        }
+        if (tx <= tn)
+            k += sx;
+        if (ty <= tn)
+            m += sy;
+        t = tn;
+    }
+    return sum;
+}
+
+/* F at a domain point from one level (the fine grid, for marching). */
+FP_FN fp_real fp_level_eval(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef, int l,
+                            fp_real U, fp_real V)
+{
+    int d = (int)fp[FP_F_DEGREE];
+    int nx = lvi[l * FP_LI_STRIDE + FP_LI_NX], ny = lvi[l * FP_LI_STRIDE + FP_LI_NY];
+    FP_GLOBAL const float *cf = coef + lvi[l * FP_LI_STRIDE + FP_LI_COEF];
+    fp_real cell = lvf[l * FP_LR_STRIDE + FP_LR_CELL];
+    fp_real kappa = (d & 1) ? (fp_real)0 : (fp_real)0.5;
+    fp_real x = (U - lvf[l * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cell + kappa;
+    fp_real y = (V - lvf[l * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cell + kappa;
+    int k = (int)floor(x), m = (int)floor(y), first = d / 2;
+    fp_real wu[4], wv[4], f = 0;
+    fp_bspline_weights(d, x - k, wu);
+    fp_bspline_weights(d, y - m, wv);
+    for (int j = 0; j <= d; j++)
+        for (int i = 0; i <= d; i++)
+            f += cf[fp_wrap_index(m - first + j, ny) * nx + fp_wrap_index(k - first + i, nx)] *
+                 wu[i] * wv[j];
+    return f;
+}
+
+FP_FN fp_real fp_h(FP_CONSTANT const fp_real *fp, fp_real y)
+{
+    if (y >= fp[FP_F_TOP])
+        return 0;
+    return y < fp[FP_F_Y0] ? (fp_real)1 : exp(-(y - fp[FP_F_Y0]) / fp[FP_F_H]);
+}
+
+/* Clip [*a, *b] to lo <= o + t d <= hi. */
+FP_FN void fp_clip(fp_real o, fp_real dd, fp_real lo, fp_real hi, fp_real *a, fp_real *b)
+{
+    if (dd == 0) {
+        if (o < lo || o > hi)
+            *b = *a;
+        return;
+    }
+    fp_real u = (lo - o) / dd, v = (hi - o) / dd;
+    *a = fmax(*a, fmin(u, v));
+    *b = fmin(*b, fmax(u, v));
+}
+
+/* Optical depth of the fogmap part along the fog-space ray o + t dir,
+ * t in [0, len].  `jitter` in [-0.5, 0.5) offsets the march samples. */
+FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                           FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                           FP_GLOBAL const unsigned char *occ, fp_real ox, fp_real oy,
+                           fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real len,
+                           fp_real jitter)
+{
+    /* Fog-local frame: undo the fog's offset and its turn about the vertical. */
+    fp_real c = fp[FP_F_COS], s = fp[FP_F_SIN];
+    fp_real px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
+    fp_real qx = c * px - s * pz, qz = s * px + c * pz;
+    fp_real ex = c * dx - s * dz, ez = s * dx + c * dz;
+    fp_real a = 0, b = len;
+    fp_clip(qx, ex, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a, &b);
+    fp_clip(py, dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
+    fp_clip(qz, ez, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], &a, &b);
+    fp_clip(py, dy, -FP_INF, fp[FP_F_TOP], &a, &b);
+    /* Domain coordinates: U = (x - A0) uscale + pad_x0, likewise V on z. */
+    fp_path_t p;
+    p.u0 = (qx - fp[FP_F_A0]) * fp[FP_F_USCALE] + fp[FP_F_PAD_X0];
+    p.du = ex * fp[FP_F_USCALE];
+    p.v0 = (qz - fp[FP_F_B0]) * fp[FP_F_VSCALE] + fp[FP_F_PAD_Y0];
+    p.dv = ez * fp[FP_F_VSCALE];
+    p.oy = py;
+    p.dy = dy;
+    int wrap = (int)fp[FP_F_WRAP];
+    if (wrap == 0) {
+        fp_clip(p.u0, p.du, fp[FP_F_CLIP], fp[FP_F_CLIP + 1], &a, &b);
+        fp_clip(p.v0, p.dv, fp[FP_F_CLIP + 2], fp[FP_F_CLIP + 3], &a, &b);
+    }
+    if (isinf(b)) {
+        /* Unbounded: stop where the exponential has died out, or at CAP. */
+        if (dy > 0 && isfinite(fp[FP_F_H]))
+            b = fmax(a, (fp[FP_F_Y0] + 40 * fp[FP_F_H] - py) / dy);
+        else
+            b = a + fp[FP_F_CAP];
+    }
+    if (!(b > a))
+        return 0;
+    fp_real sigma = fp[FP_F_SIGMA];
+    int nl = (int)fp[FP_F_NLEVELS];
+    if ((int)fp[FP_F_MODE] == 1) {
+        /* Baseline (seed 002 sec. 4.2): N uniform steps, midpoint samples. */
+        int n = (int)fp[FP_F_STEPS];
+        fp_real dt = (b - a) / n, od = 0;
+        for (int i = 0; i < n; i++) {
+            fp_real t = a + (i + (fp_real)0.5 + jitter) * dt;
+            fp_real U = p.u0 + t * p.du, V = p.v0 + t * p.dv;
+            if (wrap == 1) {
+                U = fmin(fmax(U, fp[FP_F_CLIP]), fp[FP_F_CLIP + 1]);
+                V = fmin(fmax(V, fp[FP_F_CLIP + 2]), fp[FP_F_CLIP + 3]);
+            }
+            od += fp_level_eval(fp, lvi, lvf, coef, nl, U, V) * fp_h(fp, p.oy + t * p.dy);
+        }
+        return sigma * od * dt;
+    }
+    /* Level of detail (seed 000 eq. 12): level l is integrated up to
+     * d_max_l = |OP| mu^l, and not beyond its pixel-footprint distance. */
+    fp_real dmax[FP_MAX_LEVELS_ALL];
+    fp_real op = isinf(len) ? b : len, mu = fp[FP_F_LOD_MU], scale = 1;
+    for (int l = 0; l < nl; l++) {
+        fp_real foot = fp[FP_F_FOOTPRINT] > 0 ? lvf[l * FP_LR_STRIDE + FP_LR_LOD_DIST] /
+                                                    fp[FP_F_FOOTPRINT] : FP_INF;
+        dmax[l] = l == 0 ? FP_INF : fmin(op * scale, foot);
+        scale *= mu;
+    }
+    fp_real od_max = fp[FP_F_OD_MAX] / fmax(sigma, (fp_real)1e-30);
+    /* Clamp: outside the box the fog repeats its edge, so the clamped path
+     * is straight within each of up to five pieces between box crossings. */
+    fp_real cuts[6];
+    int ncut = 0;
+    cuts[ncut++] = a;
+    if (wrap == 1) {
+        for (int axis = 0; axis < 4; axis++) {
+            fp_real o = axis < 2 ? p.u0 : p.v0, dd = axis < 2 ? p.du : p.dv;
+            if (dd == 0)
+                continue;
+            fp_real tc = (fp[FP_F_CLIP + axis] - o) / dd;
+            if (tc > a && tc < b) {
+                int i = ncut++;
+                while (i > 0 && cuts[i - 1] > tc) {
+                    cuts[i] = cuts[i - 1];
+                    i--;
+                }
+                cuts[i] = tc;
+            }
+        }
+    }
+    cuts[ncut++] = b;
+    fp_real od = 0;
+    for (int piece = 0; piece + 1 < ncut; piece++) {
+        fp_real pa = cuts[piece], pb = cuts[piece + 1];
+        if (!(pb > pa))
+            continue;
+        fp_path_t q = p;
+        if (wrap == 1) {
+            fp_real tm = (fp_real)0.5 * (pa + pb);
+            fp_real um = p.u0 + tm * p.du, vm = p.v0 + tm * p.dv;
+            if (um < fp[FP_F_CLIP] || um > fp[FP_F_CLIP + 1]) {
+                q.u0 = um < fp[FP_F_CLIP] ? fp[FP_F_CLIP] : fp[FP_F_CLIP + 1];
+                q.du = 0;
+            }
+            if (vm < fp[FP_F_CLIP + 2] || vm > fp[FP_F_CLIP + 3]) {
+                q.v0 = vm < fp[FP_F_CLIP + 2] ? fp[FP_F_CLIP + 2] : fp[FP_F_CLIP + 3];
+                q.dv = 0;
+            }
+        }
+        /* Early termination needs the sum of all levels, which alone is
+         * non-negative: walk the path in chunks of one coarse cell, add
+         * every level over each chunk, then test. */
+        fp_real speed = fmax(fabs(q.du), fabs(q.dv));
+        fp_real chunk = speed > 0 ? lvf[FP_LR_CELL] / speed : pb - pa;
+        int stop = 0;
+        for (fp_real ca = pa; ca < pb && !stop;) {
+            fp_real cb = fmin(pb, ca + chunk);
+            if (!(cb > ca))
+                cb = pb;
+            for (int l = 0; l < nl; l++) {
+                fp_real lb = fmin(cb, dmax[l]);
+                if (lb > ca)
+                    od += fp_level_integral(fp, lvi, lvf, coef, occ, l, &q, ca, lb);
+            }
+            stop = od > od_max;
+            ca = cb;
+        }
+        if (stop)
+            break;
+    }
+    return sigma * od;
+}
+
+/* Optical depth of the whole fog along the fog-space ray o + t dir,
+ * t in [0, len]: the main fog (the fogmap, or homogeneous height fog
+ * without one) inside the fog box, plus the haze. */
+FP_FN fp_real fp_fog_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                        FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                        FP_GLOBAL const unsigned char *occ, fp_real ox, fp_real oy, fp_real oz,
+                        fp_real dx, fp_real dy, fp_real dz, fp_real len, fp_real jitter)
+{
+    fp_real od = fp_height_od(fp[FP_F_HAZE], fp[FP_F_HAZE + 1], fp[FP_F_HAZE + 2],
+                              fp[FP_F_HAZE + 3], oy, dy, len);
+    if (fp[FP_F_HAS_MAP] != 0)
+        return od + fp_fogmap_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, len, jitter);
+    /* Homogeneous main fog: closed form over the part of the ray in the box
+     * (the box is axis-aligned in the fog's turned frame). */
+    fp_real c = fp[FP_F_COS], s = fp[FP_F_SIN];
+    fp_real px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
+    fp_real a = 0, b = len;
+    fp_clip(c * px - s * pz, c * dx - s * dz, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a, &b);
+    fp_clip(py, dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
+    fp_clip(s * px + c * pz, s * dx + c * dz, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], &a, &b);
+    if (b > a)
+        od += fp_height_od(fp[FP_F_SIGMA], fp[FP_F_Y0], fp[FP_F_H], fp[FP_F_TOP],
+                           py + a * dy, dy, b - a);
+    return od;
+}
+
+#endif

@@ -1,0 +1,343 @@
+/* The wavelet fogmap in the integrator: the exact integration (the C
+ * reference, double) against brute-force quadrature of the fog's definition
+ * for every basis and wrap mode over random rays; a constant fogmap equals
+ * homogeneous fog; sparse skipping changes nothing; OpenCL against the C
+ * reference on whole frames (|dtau| <= 1e-5); the error of level of detail,
+ * early termination and marching, printed. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "clrt.h"
+#include "fogmap.h"
+#include "fp.h"
+#include "integrate.h"
+#include "options.h"
+#include "testutil.h"
+#include "wavelet.h"
+
+#include "fog_core.h"   /* FP_F_* parameter slots */
+
+/* The rectangle: fogmap pixels of 2 x 1.5 fog units. */
+#define A0 (-10.0)
+#define B0 (-5.0)
+#define US 0.5
+#define VS (1 / 1.5)
+#define FY0 1.0
+#define FH 6.0
+
+typedef struct setup_t {
+    fp_params_t p;
+    fp_fogmap_stage_t s;
+    fp_integrate_data_t d;
+    float *img;
+    int w, h;
+} setup_t;
+
+static void make(setup_t *st, int w, int h, int degree, int wrap, int levels, double top,
+                 int zero_blocks)
+{
+    memset(st, 0, sizeof *st);
+    fp_options_defaults(&st->p);
+    fp_params_t *p = &st->p;
+    p->fog.density = 0.05;
+    p->fog.height[0] = FY0;
+    p->fog.height[1] = FH;
+    p->fog.height[2] = top;
+    p->fogmap.basis = degree;
+    p->fogmap.wrap = wrap;
+    p->fogmap.levels = levels;
+    p->fogmap.rect[0] = A0;
+    p->fogmap.rect[1] = B0;
+    p->fogmap.rect[2] = A0 + w / US;
+    p->fogmap.rect[3] = B0 + h / VS;
+    st->w = w;
+    st->h = h;
+    st->img = malloc((size_t)w * h * sizeof(float));
+    for (int j = 0; j < h; j++)
+        for (int i = 0; i < w; i++) {
+            double v = urand() * 2;
+            /* Whole empty blocks, for sparse skipping. */
+            if (zero_blocks && ((i / 4 + j / 4) % 3 == 0))
+                v = 0;
+            st->img[j * w + i] = (float)v;
+        }
+    assert_int_equal(fp_integrate_commit(p, &st->d), FP_OK);
+    assert_int_equal(fp_fogmap_setup(p, NULL, st->img, w, h, &st->s, &st->d), FP_OK);
+}
+
+static void unmake(setup_t *st)
+{
+    fp_fogmap_release(&st->s);
+    fp_options_free(&st->p);
+    free(st->img);
+}
+
+static double hprof(double y, double top)
+{
+    if (y >= top)
+        return 0;
+    return y < FY0 ? 1 : exp(-(y - FY0) / FH);
+}
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Brute force: Gauss-Legendre (8 nodes) between every crossing of a
+ * half-pixel line and of the height planes, where the integrand is smooth,
+ * subdivided so the exponential changes little; F from its definition. */
+static double brute(const setup_t *st, const double o[3], const double dir[3], double len,
+                    double top)
+{
+    static const double x8[8] = { -0.9602898564975363, -0.7966664774136267, -0.5255324099163290,
+                                  -0.1834346424956498, 0.1834346424956498, 0.5255324099163290,
+                                  0.7966664774136267, 0.9602898564975363 };
+    static const double w8[8] = { 0.1012285362903763, 0.2223810344533745, 0.3137066458778873,
+                                  0.3626837833783620, 0.3626837833783620, 0.3137066458778873,
+                                  0.2223810344533745, 0.1012285362903763 };
+    double u0 = (o[0] - A0) * US, du = dir[0] * US, v0 = (o[2] - B0) * VS, dv = dir[2] * VS;
+    size_t cap = 4096, n = 0;
+    double *cut = malloc(cap * sizeof *cut);
+    cut[n++] = 0;
+    cut[n++] = len;
+    const double sc[2][2] = { { u0, du }, { v0, dv } };
+    for (int ax = 0; ax < 2; ax++) {
+        double a = sc[ax][0], b = sc[ax][0] + len * sc[ax][1];
+        if (sc[ax][1] == 0)
+            continue;
+        double lo = fmin(a, b), hi = fmax(a, b);
+        for (double k = ceil(lo * 2) / 2; k <= hi; k += 0.5) {
+            double t = (k - sc[ax][0]) / sc[ax][1];
+            if (t > 0 && t < len) {
+                if (n == cap)
+                    cut = realloc(cut, (cap *= 2) * sizeof *cut);
+                cut[n++] = t;
+            }
+        }
+    }
+    double planes[2] = { FY0, top };
+    for (int i = 0; i < 2; i++)
+        if (dir[1] != 0 && isfinite(planes[i])) {
+            double t = (planes[i] - o[1]) / dir[1];
+            if (t > 0 && t < len) {
+                if (n == cap)
+                    cut = realloc(cut, (cap *= 2) * sizeof *cut);
+                cut[n++] = t;
+            }
+        }
+    qsort(cut, n, sizeof *cut, cmp_d);
+    double sum = 0;
+    for (size_t i = 0; i + 1 < n; i++) {
+        double a = cut[i], b = cut[i + 1];
+        if (!(b > a))
+            continue;
+        int pieces = 1 + (int)(fabs(dir[1]) * (b - a) / FH / 0.05);
+        double step = (b - a) / pieces;
+        for (int q = 0; q < pieces; q++) {
+            double c = a + (q + 0.5) * step;
+            for (int g = 0; g < 8; g++) {
+                double t = c + 0.5 * step * x8[g];
+                double f = fp_fogmap_eval_direct(st->img, st->w, st->h, st->p.fogmap.basis,
+                                                 st->p.fogmap.wrap, u0 + t * du, v0 + t * dv);
+                sum += w8[g] * 0.5 * step * f * hprof(o[1] + t * dir[1], top);
+            }
+        }
+    }
+    free(cut);
+    return st->p.fog.density * sum;
+}
+
+/* A random ray of one of the hard classes. */
+static void random_ray(int k, double o[3], double dir[3], double *len)
+{
+    o[0] = -20 + 50 * urand();
+    o[1] = -3 + 20 * urand();
+    o[2] = -12 + 30 * urand();
+    double d[3] = { urand() - 0.5, urand() - 0.5, urand() - 0.5 };
+    switch (k % 6) {
+    case 0: d[1] = 0; break;                           /* level */
+    case 1: d[1] = (urand() - 0.5) * 1e-4; break;      /* grazing */
+    case 2: d[0] = 0; break;                           /* along the grid's v */
+    case 3: d[2] = 0; break;                           /* along the grid's u */
+    case 4:                                            /* through a pixel corner */
+        o[0] = A0 + 2.0 * (int)(urand() * 10);
+        o[2] = B0 + 1.5 * (int)(urand() * 8);
+        d[0] = 2.0;
+        d[2] = 1.5;
+        d[1] = urand() - 0.5;
+        break;
+    default: break;
+    }
+    double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int i = 0; i < 3; i++)
+        dir[i] = d[i] / l;
+    *len = 0.5 + 60 * urand();
+}
+
+static void test_exact_vs_brute_force(void **state)
+{
+    (void)state;
+    double worst = 0;
+    for (int degree = 0; degree <= 3; degree++)
+        for (int wrap = 0; wrap <= 2; wrap++) {
+            setup_t st;
+            int w = wrap == FP_WRAP_REPEAT ? 16 : 13, h = wrap == FP_WRAP_REPEAT ? 8 : 9;
+            make(&st, w, h, degree, wrap, 2, degree == 2 ? 14.0 : INFINITY, 0);
+            double worst_here = 0;
+            for (int k = 0; k < 120; k++) {
+                double o[3], dir[3], len;
+                random_ray(k, o, dir, &len);
+                double a = fp_integrate_optical_depth(&st.d, o, dir, len, 0);
+                double b = brute(&st, o, dir, len, st.p.fog.height[2]);
+                /* Coefficients are floats: allow their rounding (1e-7 of the
+                 * fogmap's scale) besides the relative bound. */
+                double err = fabs(a - b) / (fabs(b) + 1e-2 * st.p.fog.density * len);
+                worst_here = fmax(worst_here, err);
+                if (!(err < 1e-6))
+                    fail_msg("degree %d wrap %d ray %d o (%g,%g,%g) dir (%g,%g,%g) len %g: "
+                             "exact %.12g brute force %.12g", degree, wrap, k, o[0], o[1], o[2],
+                             dir[0], dir[1], dir[2], len, a, b);
+            }
+            print_message("degree %d wrap %d: max relative error %.2e\n", degree, wrap, worst_here);
+            worst = fmax(worst, worst_here);
+            unmake(&st);
+        }
+    print_message("exact integration vs brute force: max relative error %.2e (bound 1e-6)\n", worst);
+}
+
+static void test_constant_is_homogeneous(void **state)
+{
+    (void)state;
+    for (int degree = 0; degree <= 3; degree++) {
+        setup_t st;
+        make(&st, 16, 8, degree, FP_WRAP_REPEAT, 2, INFINITY, 0);
+        for (int i = 0; i < 16 * 8; i++)
+            st.img[i] = 1;
+        fp_fogmap_release(&st.s);
+        assert_int_equal(fp_fogmap_setup(&st.p, NULL, st.img, 16, 8, &st.s, &st.d), FP_OK);
+        fp_integrate_data_t plain;
+        assert_int_equal(fp_integrate_commit(&st.p, &plain), FP_OK);
+        for (int k = 0; k < 200; k++) {
+            double o[3], dir[3], len;
+            random_ray(k, o, dir, &len);
+            double a = fp_integrate_optical_depth(&st.d, o, dir, len, 0);
+            double b = fp_integrate_optical_depth(&plain, o, dir, len, 0);
+            assert_double_equal(a, b, 1e-9 * (1 + b));
+        }
+        unmake(&st);
+    }
+}
+
+static void test_sparse_exact(void **state)
+{
+    (void)state;
+    for (int degree = 0; degree <= 3; degree++) {
+        setup_t st;
+        make(&st, 48, 32, degree, FP_WRAP_ZERO, 2, INFINITY, 1);
+        fp_integrate_data_t off = st.d;
+        off.fp[FP_F_SPARSE] = 0;
+        assert_true(st.d.fp[FP_F_SPARSE] != 0);
+        for (int k = 0; k < 300; k++) {
+            double o[3], dir[3], len;
+            random_ray(k, o, dir, &len);
+            len *= 3;
+            double a = fp_integrate_optical_depth(&st.d, o, dir, len, 0);
+            double b = fp_integrate_optical_depth(&off, o, dir, len, 0);
+            assert_double_equal(a, b, 1e-12 * (1 + b));
+        }
+        unmake(&st);
+    }
+}
+
+static void test_opencl_parity(void **state)
+{
+    (void)state;
+    fp_cl_t *cl = NULL;
+    if (fp_cl_open(NULL, &cl) != FP_OK)
+        skip();
+    fp_integrate_cl_t s;
+    assert_int_equal(fp_integrate_cl_init(cl, &s), FP_OK);
+    const int w = 160, h = 96;
+    size_t n = (size_t)w * h;
+    float *depth = malloc(n * sizeof(float)), *ref = malloc(n * 4 * sizeof(float)),
+          *got = malloc(n * 4 * sizeof(float));
+    for (int degree = 0; degree <= 3; degree++) {
+        setup_t st;
+        make(&st, 40, 24, degree, degree % 3, 3, degree == 1 ? 12.0 : INFINITY, 1);
+        fp_view_t v;
+        assert_int_equal(make_view(&v, w, h, 2 + 4 * degree, -20), 0);
+        for (size_t i = 0; i < n; i++) {
+            double u = urand();
+            depth[i] = u < 0.05 ? INFINITY : (float)pow(10, -1 + 2.5 * urand());
+        }
+        assert_int_equal(fp_integrate_process(&st.d, &v, depth, ref, NULL), FP_OK);
+        assert_int_equal(fp_integrate_process_cl(&s, &st.d, &v, depth, got), FP_OK);
+        double worst = 0;
+        for (size_t i = 0; i < n; i++) {
+            double e = fabs((double)got[4 * i + 3] - ref[4 * i + 3]);
+            worst = fmax(worst, e);
+            if (!(e <= 1e-5))
+                fail_msg("degree %d pixel %zu depth %g: cl %.9g ref %.9g", degree, i, depth[i],
+                         got[4 * i + 3], ref[4 * i + 3]);
+        }
+        print_message("degree %d: OpenCL vs C reference max |dtau| %.2e (tolerance 1e-5)\n",
+                      degree, worst);
+        unmake(&st);
+    }
+    free(depth);
+    free(ref);
+    free(got);
+    fp_integrate_cl_release(&s);
+    fp_cl_close(cl);
+}
+
+/* Fast paths are measured against the exact answer; their errors printed,
+ * and bounded where a bound is known. */
+static void test_fast_path_errors(void **state)
+{
+    (void)state;
+    setup_t st;
+    make(&st, 64, 64, 1, FP_WRAP_ZERO, 4, INFINITY, 0);
+    fp_integrate_data_t lod = st.d, term = st.d, march = st.d;
+    lod.fp[FP_F_LOD_MU] = 0.5;
+    term.fp[FP_F_OD_MAX] = -log(0.01);   /* --min-transmittance 0.01 */
+    march.fp[FP_F_MODE] = 1;            /* --integrator march */
+    march.fp[FP_F_STEPS] = 1024;
+    double e_lod = 0, e_term = 0, e_march = 0;
+    for (int k = 0; k < 300; k++) {
+        double o[3], dir[3], len;
+        random_ray(k, o, dir, &len);
+        len *= 4;
+        double t = exp(-fp_integrate_optical_depth(&st.d, o, dir, len, 0));
+        e_lod = fmax(e_lod, fabs(exp(-fp_integrate_optical_depth(&lod, o, dir, len, 0)) - t));
+        e_term = fmax(e_term, fabs(exp(-fp_integrate_optical_depth(&term, o, dir, len, 0)) - t));
+        e_march = fmax(e_march, fabs(exp(-fp_integrate_optical_depth(&march, o, dir, len, 0)) - t));
+    }
+    print_message("max |dtau| against exact: lod-mu 0.5 %.2e, min-transmittance 0.01 %.2e, "
+                  "march 1024 steps %.2e\n", e_lod, e_term, e_march);
+    /* Stopping below T = 0.01 can only leave tau in [0, 0.01]. */
+    assert_true(e_term <= 0.01);
+    assert_true(e_march < 1e-3);
+    unmake(&st);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_exact_vs_brute_force),
+        cmocka_unit_test(test_constant_is_homogeneous),
+        cmocka_unit_test(test_sparse_exact),
+        cmocka_unit_test(test_opencl_parity),
+        cmocka_unit_test(test_fast_path_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
