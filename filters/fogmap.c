@@ -45,6 +45,9 @@ const fp_option_t fp_fogmap_options[] = {
       "offset the march samples per pixel (the same pattern every frame)", NULL, 0 },
     { "sparse", 0, FP_OPT_ENUM, FM(sparse), 0, 0, "on", 0, 0, "off|on", NULL,
       "skip blocks of zero coefficients while walking the grid (exact)", NULL, 0 },
+    { "deconstruct", 0, FP_OPT_ENUM, FM(deconstruct), 0, 0, "on", 0, 0, "off|on", NULL,
+      "turn detail bands back into one B-spline surface per level (seed 000 sec. 4.4); off "
+      "expands the raw bands on the fly (slower, for comparison)", NULL, 0 },
     { "fogmap-preview", 0, FP_OPT_STRING, FM(preview), 0, 0, NULL, 0, 0, NULL, "DIR",
       "write one PNG per wavelet level and the reconstructed fogmap into DIR, then exit", NULL,
       FP_OPTF_CLI_ONLY },
@@ -106,8 +109,15 @@ static float *padded_fine(const float *img, const fp_fogmap_t *m)
     return g;
 }
 
+/* Levels 1.. as raw bands (LH, HL, HH at half resolution, one after the
+ * other) instead of deconstructed surfaces. */
+static size_t band_size(const fp_fogmap_t *m, int l)
+{
+    return (size_t)m->band[l][0].nx * m->band[l][0].ny;
+}
+
 static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_fog,
-                        fp_fog_tables_t *t)
+                        int deconstruct, fp_fog_tables_t *t)
 {
     memset(t, 0, sizeof *t);
     int nl = m->num_levels;
@@ -116,7 +126,7 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
     for (int l = 0; l < nl; l++) {
         const fp_fog_level_t *lv = &m->level[l];
         int b = block_size(lv->nx, lv->ny);
-        ncoef += (size_t)lv->nx * lv->ny;
+        ncoef += !deconstruct && l > 0 ? 3 * band_size(m, l) : (size_t)lv->nx * lv->ny;
         nocc += (size_t)(lv->nx / b) * (lv->ny / b);
     }
     t->coef = malloc(ncoef * sizeof(float));
@@ -141,8 +151,16 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
         lr[FP_LR_ORIGIN_U] = lv->origin_u;
         lr[FP_LR_ORIGIN_V] = lv->origin_v;
         lr[FP_LR_LOD_DIST] = lv->cell * cell_to_fog;
-        memcpy(t->coef + co, lv->coef, (size_t)lv->nx * lv->ny * sizeof(float));
-        co += (size_t)lv->nx * lv->ny;
+        if (!deconstruct && l > 0 && l < nl) {
+            li[FP_LI_BANDS] = 1;
+            for (int band = 0; band < 3; band++) {
+                memcpy(t->coef + co, m->band[l][band].coef, band_size(m, l) * sizeof(float));
+                co += band_size(m, l);
+            }
+        } else {
+            memcpy(t->coef + co, lv->coef, (size_t)lv->nx * lv->ny * sizeof(float));
+            co += (size_t)lv->nx * lv->ny;
+        }
         if (l < nl) {
             occupancy(lv, m->degree, b, t->occ + oo);
             oo += (size_t)(lv->nx / b) * (lv->ny / b);
@@ -246,8 +264,15 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
     v[FP_F_JITTER] = fm->jitter;
     v[FP_F_SPARSE] = fm->sparse;
     v[FP_F_HAS_MAP] = 1;
+    for (int f = 0; f < 2; f++) {
+        const fp_wavelet_filter_t *sf = &m->synth[f];
+        v[FP_F_TAPS + 18 * f] = sf->lo;
+        v[FP_F_TAPS + 18 * f + 1] = sf->hi;
+        for (int k = 0; k <= sf->hi - sf->lo && k < 16; k++)
+            v[FP_F_TAPS + 18 * f + 2 + k] = sf->tap[k];
+    }
     double cell_to_fog = 1.0 / fmax(v[FP_F_USCALE], v[FP_F_VSCALE]);
-    if ((rc = build_tables(m, img, cell_to_fog, &s->tables)))
+    if ((rc = build_tables(m, img, cell_to_fog, fm->deconstruct, &s->tables)))
         return rc;
     d->tables = &s->tables;
     return FP_OK;

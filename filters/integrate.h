@@ -10,7 +10,7 @@
 #include "clrt.h"
 #include "params.h"
 
-#define FP_F_COUNT_ 44   /* kernels/fog_core.h FP_F_COUNT */
+#define FP_F_COUNT_ 80   /* kernels/fog_core.h FP_F_COUNT */
 #define FP_LEVEL_TABLE 16  /* FP_MAX_LEVELS_ALL */
 
 /* The fogmap as the integrator reads it (filled by the fogmap stage):

@@ -78,7 +78,9 @@ typedef double fp_real;
 #define FP_F_SPARSE 38
 #define FP_F_HAS_MAP 39
 #define FP_F_FOOTPRINT 40 /* --lod-footprint pixels times the angle of one pixel */
-#define FP_F_COUNT 44
+#define FP_F_TAPS 44     /* synthesis filters for levels kept as raw bands:
+                            phi lo, hi, 16 taps; psi lo, hi, 16 taps */
+#define FP_F_COUNT 80
 
 /* Per level: ints and reals. */
 #define FP_LI_NX 0
@@ -86,6 +88,7 @@ typedef double fp_real;
 #define FP_LI_COEF 2      /* offset into the coefficient buffer */
 #define FP_LI_OCC 3       /* offset into the occupancy buffer */
 #define FP_LI_BLOCK 4     /* cells per occupancy block (divides nx and ny) */
+#define FP_LI_BANDS 5     /* 1: raw LH, HL, HH bands at half resolution, expanded on the fly */
 #define FP_LI_STRIDE 8
 #define FP_LR_CELL 0      /* cell size in domain pixels */
 #define FP_LR_ORIGIN_U 1  /* basis (i,j) centered at origin + cell*(i,j) */
@@ -255,6 +258,41 @@ FP_FN fp_real fp_cell_integral(FP_CONSTANT const fp_real *fp, int d, const fp_re
     return sum;
 }
 
+FP_FN int fp_floor_div2(int a)
+{
+    return a >= 0 ? a / 2 : -((1 - a) / 2);
+}
+
+/* Without deconstruction (seed 000 sec. 4.4, its Table 3 compares): the
+ * scaling coefficient n, m of a level, computed on the fly from the three
+ * raw detail bands at half resolution through the synthesis filters:
+ * e(n,m) = sum_ij LH_ij phi(n-2i) psi(m-2j) + HL_ij psi(n-2i) phi(m-2j)
+ *        + HH_ij psi(n-2i) psi(m-2j). */
+FP_FN fp_real fp_band_coef(FP_CONSTANT const fp_real *fp, FP_GLOBAL const float *bands, int nbx,
+                           int nby, int n, int m)
+{
+    FP_CONSTANT const fp_real *t = fp + FP_F_TAPS;
+    int lo0 = (int)t[0], hi0 = (int)t[1], lo1 = (int)t[18], hi1 = (int)t[19];
+    int lo = lo0 < lo1 ? lo0 : lo1, hi = hi0 > hi1 ? hi0 : hi1;
+    size_t nb = (size_t)nbx * nby;
+    fp_real sum = 0;
+    for (int j = fp_floor_div2(m - hi + 1); j <= fp_floor_div2(m - lo); j++) {
+        int kv = m - 2 * j;
+        fp_real phv = kv >= lo0 && kv <= hi0 ? t[2 + kv - lo0] : 0;
+        fp_real psv = kv >= lo1 && kv <= hi1 ? t[20 + kv - lo1] : 0;
+        size_t row = (size_t)fp_wrap_index(j, nby) * nbx;
+        for (int i = fp_floor_div2(n - hi + 1); i <= fp_floor_div2(n - lo); i++) {
+            int ku = n - 2 * i;
+            fp_real phu = ku >= lo0 && ku <= hi0 ? t[2 + ku - lo0] : 0;
+            fp_real psu = ku >= lo1 && ku <= hi1 ? t[20 + ku - lo1] : 0;
+            size_t at = row + fp_wrap_index(i, nbx);
+            sum += bands[at] * phu * psv + bands[nb + at] * psu * phv +
+                   bands[2 * nb + at] * psu * psv;
+        }
+    }
+    return sum;
+}
+
 /* One level's contribution over [a, b]: walk the knot intervals the path
  * crosses (2D DDA), each with the (d+1)^2 coefficients whose support
  * reaches it, skipping occupancy blocks that hold only zeros. */
@@ -266,6 +304,7 @@ FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const
     int d = (int)fp[FP_F_DEGREE];
     int nx = lvi[l * FP_LI_STRIDE + FP_LI_NX], ny = lvi[l * FP_LI_STRIDE + FP_LI_NY];
     int block = lvi[l * FP_LI_STRIDE + FP_LI_BLOCK];
+    int bands = lvi[l * FP_LI_STRIDE + FP_LI_BANDS];
     FP_GLOBAL const float *cf = coef + lvi[l * FP_LI_STRIDE + FP_LI_COEF];
     FP_GLOBAL const unsigned char *oc = occ + lvi[l * FP_LI_STRIDE + FP_LI_OCC];
     fp_real cell = lvf[l * FP_LR_STRIDE + FP_LR_CELL];
@@ -276,7 +315,7 @@ FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const
     fp_real dxdt = p->du / cell, dydt = p->dv / cell;
     int sx = dxdt > 0 ? 1 : -1, sy = dydt > 0 ? 1 : -1;
     int bx = nx / block;
-    int sparse = fp[FP_F_SPARSE] != 0;
+    int sparse = fp[FP_F_SPARSE] != 0 && !bands;
     fp_real t = a, sum = 0;
     int k = fp_cell_of(xs + t * dxdt, dxdt), m = fp_cell_of(ys + t * dydt, dydt);
     int first = d / 2;
@@ -312,8 +351,10 @@ FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const
             int nz = 0;
             for (int j = 0; j <= d; j++)
                 for (int i = 0; i <= d; i++) {
-                    float v = cf[fp_wrap_index(m - first + j, ny) * nx +
-                                 fp_wrap_index(k - first + i, nx)];
+                    fp_real v = bands ? fp_band_coef(fp, cf, nx / 2, ny / 2, k - first + i,
+                                                     m - first + j)
+                                      : cf[fp_wrap_index(m - first + j, ny) * nx +
+                                           fp_wrap_index(k - first + i, nx)];
                     c[j * 4 + i] = v;
                     nz |= v != 0;
                 }

@@ -66,6 +66,7 @@ typedef struct fp_fogmap_params_t {
     int steps;
     int jitter;
     int sparse;
+    int deconstruct;
     char *preview;        /* directory for --fogmap-preview */
 } fp_fogmap_params_t;
 

@@ -300,6 +300,31 @@ static void test_opencl_parity(void **state)
     fp_cl_close(cl);
 }
 
+/* Rendering the raw bands (no deconstruction) integrates the same fog. */
+static void test_without_deconstruction(void **state)
+{
+    (void)state;
+    for (int degree = 0; degree <= 3; degree++) {
+        setup_t st, raw;
+        make(&st, 24, 16, degree, degree % 3, 2, INFINITY, 0);
+        /* Same parameters (strings shared, freed once with st). */
+        memset(&raw, 0, sizeof raw);
+        raw.p = st.p;
+        raw.p.fogmap.deconstruct = 0;
+        assert_int_equal(fp_integrate_commit(&raw.p, &raw.d), FP_OK);
+        assert_int_equal(fp_fogmap_setup(&raw.p, NULL, st.img, 24, 16, &raw.s, &raw.d), FP_OK);
+        for (int k = 0; k < 100; k++) {
+            double o[3], dir[3], len;
+            random_ray(k, o, dir, &len);
+            double a = fp_integrate_optical_depth(&st.d, o, dir, len, 0);
+            double b = fp_integrate_optical_depth(&raw.d, o, dir, len, 0);
+            assert_double_equal(b, a, 1e-6 * (1 + a));
+        }
+        fp_fogmap_release(&raw.s);
+        unmake(&st);
+    }
+}
+
 /* Fast paths are measured against the exact answer; their errors printed,
  * and bounded where a bound is known. */
 static void test_fast_path_errors(void **state)
@@ -337,6 +362,7 @@ int main(void)
         cmocka_unit_test(test_constant_is_homogeneous),
         cmocka_unit_test(test_sparse_exact),
         cmocka_unit_test(test_opencl_parity),
+        cmocka_unit_test(test_without_deconstruction),
         cmocka_unit_test(test_fast_path_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
