@@ -101,7 +101,8 @@ typedef struct fp_exr_write_opts_t {
  * (width*height*4 floats; written under the input's color channel names,
  * R,G,B,A when the input had no color; A only if the input had alpha or
  * rgba is given for a color-less input); every other channel passed through
- * unchanged.  Output is scanline.  *out is malloc'd. */
+ * unchanged.  Output is scanline.  *out is malloc'd.
+ * rgba NULL: the frame's own colour (fp_frame_rgba, possibly edited). */
 int fp_exr_encode(const fp_frame_t *f, const float *rgba,
                   const fp_exr_write_opts_t *opts, const char *where_file,
                   long frame, void **out, size_t *out_size);
@@ -118,7 +119,9 @@ int fp_read_whole_file(const char *path, void **buf, size_t *size);
 int fp_write_file_atomic(const char *path, const void *buf, size_t size);
 
 /* Parse a compression name ("none", "rle", "zips", "zip", "piz", "pxr24",
- * "b44", "b44a", "dwaa", "dwab") into exr_compression_t; -1 if unknown. */
+ * "b44", "b44a", "dwaa", "dwab") into exr_compression_t; -1 if unknown.
+ * Note: OpenEXR 3.1's C library can neither decode nor encode dwaa/dwab;
+ * with it such frames fail with a message (read or write), never crash. */
 int fp_exr_compression_from_name(const char *name);
 const char *fp_exr_compression_name(int compression);
 
