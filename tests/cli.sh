@@ -18,11 +18,10 @@ check "fog a sequence of 3 frames" "$FOGPIPE" -i "$S/scene.####.exr" -o "$T/seq.
 check "3 frames written" test -f "$T/seq.0001.exr" -a -f "$T/seq.0002.exr" -a -f "$T/seq.0003.exr" -a ! -e "$T/seq.0004.exr"
 check "output keeps channels, windows and camera attributes" sh -c '
   "$OIIOTOOL" --info -v "$1" > "$2/info.txt" &&
-  grep -q "R, G, B, A, Z" "$2/info.txt" && grep -q "worldToCamera" "$2/info.txt" &&
+  grep -q "channel list: R (half), G (half), B (half), A (half), Z (float)" "$2/info.txt" && grep -q "worldToCamera" "$2/info.txt" &&
   grep -q "worldToNDC" "$2/info.txt" && grep -q "320 x  180" "$2/info.txt"' sh "$T/seq.0002.exr" "$T"
-check "depth passes through unchanged" "$IDIFF" -q -fail 0 -warn 0 \
-  -ch Z "$S/scene.0002.exr" "$T/seq.0002.exr"
-check "fog changes the color" sh -c '! "$IDIFF" -q -fail 0.01 -ch R,G,B "$1" "$2" >/dev/null' sh \
+check "depth passes through unchanged" same_channels 0 Z "$S/scene.0002.exr" "$T/seq.0002.exr"
+check "fog changes the color" sh -c '! "$IDIFF" -q -fail 0.01 "$1" "$2" >/dev/null' sh \
   "$S/scene.0002.exr" "$T/seq.0002.exr"
 check "no temporary files left" sh -c '! ls -a "$1" | grep -q "\.tmp\."' sh "$T"
 check "frames found on disk without --frames" "$FOGPIPE" -i "$S/scene.%04d.exr" -o "$T/all.@@@@.exr"
@@ -62,14 +61,14 @@ check "-q silences warnings" sh -c '"$FOGPIPE" -q -i "$1" -o "$2" 2> "$3" && ! t
 # Separate depth sequence and Blender multilayer input give the same fog.
 "$OIIOTOOL" "$S/scene.0001.exr" --ch Z -o "$T/d.0001.exr"
 check "--depth PATTERN" "$FOGPIPE" -i "$T/nodepth.exr" --depth "$T/d.####.exr" --frames 1 -o "$T/sep.exr"
-check "separate depth = embedded depth" "$IDIFF" -q -fail 0 -ch R,G,B,A "$T/seq.0001.exr" "$T/sep.exr"
+check "separate depth = embedded depth" same_channels 0 R,G,B,A "$T/seq.0001.exr" "$T/sep.exr"
 mkdir -p "$T/blender"
 "$FP_SCENE" -o "$T/blender" --layout blender --frames 1-1 --shadow-size 0 >/dev/null
 check "Blender multilayer input" "$FOGPIPE" -i "$T/blender/scene.0001.exr" -o "$T/blender-out.exr"
 check "Blender output keeps layer names" sh -c '"$OIIOTOOL" --info -v "$1" | grep -q "ViewLayer.Combined.R"' \
   sh "$T/blender-out.exr"
 "$OIIOTOOL" "$T/blender-out.exr" --ch "R=ViewLayer.Combined.R,G=ViewLayer.Combined.G,B=ViewLayer.Combined.B" -o "$T/blender-rgb.exr"
-check "Blender layout fogs like the plain one" "$IDIFF" -q -fail 0 -ch R,G,B "$T/seq.0001.exr" "$T/blender-rgb.exr"
+check "Blender layout fogs like the plain one" same_channels 0 R,G,B "$T/seq.0001.exr" "$T/blender-rgb.exr"
 check "--color-layer/--depth-channel overrides" "$FOGPIPE" -i "$T/blender/scene.0001.exr" \
   -o "$T/blender-ovr.exr" --color-layer ViewLayer.Combined --depth-channel ViewLayer.Depth.Z
 fails "--depth-channel that does not exist" 1 "scene.0001.exr.*frame 1.*(Nope.Z|depth)" "$T/o8.exr" \
@@ -83,9 +82,9 @@ check "OpenCL within 1e-5 of the C reference (float output)" "$IDIFF" -q -fail 1
 
 # --print-camera and camera overrides.
 check "--print-camera" sh -c '"$FOGPIPE" --print-camera -i "$1" --frames 1-2 > "$2" &&
-  test "$(grep -c "position" "$2")" = 2 && grep -q "header worldToCamera" "$2"' sh "$S/scene.####.exr" "$T/cam.txt"
+  test "$(grep -c "^  position" "$2")" = 2 && grep -q "header worldToCamera" "$2"' sh "$S/scene.####.exr" "$T/cam.txt"
 printf '1 0 2 -10 0 180 0 45\n' > "$T/cam.chan"
-check "--camera-chan" sh -c '"$FOGPIPE" --print-camera -i "$1" --camera-chan "$2" | grep -q "forward   0.000000 0.000000 1.000000"' \
+check "--camera-chan" sh -c '"$FOGPIPE" --print-camera -i "$1" --camera-chan "$2" | grep -Eq "forward +-?0.000000 -?0.000000 1.000000"' \
   sh "$S/scene.0001.exr" "$T/cam.chan"
 
 # Presets: key = value lines; the command line wins.

@@ -43,6 +43,15 @@ fails() {
   fi
 }
 
+# same_channels FAILTOL CHANNELS A B: idiff on some channels only (idiff
+# has no channel option, so oiiotool extracts them first).
+same_channels() {
+  local tol=$1 ch=$2 a=$3 b=$4 n=$((tap_n + 1))
+  "$OIIOTOOL" "$a" --ch "$ch" -o "$T/sc$n.a.exr" &&
+    "$OIIOTOOL" "$b" --ch "$ch" -o "$T/sc$n.b.exr" &&
+    "$IDIFF" -q -fail "$tol" -warn "$tol" "$T/sc$n.a.exr" "$T/sc$n.b.exr"
+}
+
 finish() {
   echo "1..$tap_n"
   [ "$tap_failed" = 0 ]

@@ -50,7 +50,7 @@ if [ -n "${FFMPEG:-}" ]; then
   check "ffmpeg stream: 3 frames in, 3 out" sh -c '"$FOGPIPE" --depth "$2/scene.####.exr" \
       --camera-pos 0,2,-10 --camera-target 0,2,0 --vfov 45 < "$1" > "$3/ff-out.stream" &&
     "$FOGPIPE" --print-camera --depth "$2/scene.####.exr" --camera-pos 0,2,-10 --camera-target 0,2,0 \
-      --vfov 45 < "$3/ff-out.stream" | grep -c position | grep -qx 3' sh "$T/ffmpeg.stream" "$S" "$T"
+      --vfov 45 < "$3/ff-out.stream" | grep -c "^  position" | grep -qx 3' sh "$T/ffmpeg.stream" "$S" "$T"
 else
   skip "ffmpeg not installed"
   skip "ffmpeg not installed"
