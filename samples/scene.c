@@ -3,8 +3,10 @@
  * An analytic ray tracer (ground plane, boxes, a wall with gaps, spheres,
  * a low sun with hard shadows) that writes an animated color + depth EXR
  * sequence with the standard worldToCamera / worldToNDC attributes, and
- * per frame the sun's orthographic depth map (its own worldToNDC), with
- * OpenEXR's C API.  Deterministic: the same bytes every run.
+ * per frame the sun's orthographic depth map (its own worldToNDC), and a
+ * 64x64 greyscale fogmap (fogmap.exr, channel Y: patches of fog with clear
+ * gaps, for --fogmap), with OpenEXR's C API.  Deterministic: the same bytes
+ * every run.
  *
  *   fp-scene -o DIR [--width W] [--height H] [--frames A-B]
  *            [--layout plain|blender] [--shadow-size N] [--sky-depth V]
@@ -231,7 +233,7 @@ typedef struct {
 } out_chan_t;
 
 static int write_exr(const char *path, int w, int h, const out_chan_t *ch, int nch,
-                     const camera_t *cam, const char *desc)
+                     const camera_t *cam /* NULL: no camera attributes */, const char *desc)
 {
     char tmp[4200];
     const char *slash = strrchr(path, '/');
@@ -250,13 +252,13 @@ static int write_exr(const char *path, int w, int h, const out_chan_t *ch, int n
     for (int c = 0; c < nch && rv == EXR_ERR_SUCCESS; c++)
         rv = exr_add_channel(ctx, idx, ch[c].name, ch[c].type, EXR_PERCEPTUALLY_LINEAR, 1, 1);
     exr_attr_m44f_t m1, m2;
-    for (int i = 0; i < 16; i++) {
+    for (int i = 0; i < 16 && cam; i++) {
         m1.m[i] = (float)cam->w2c[i];
         m2.m[i] = (float)cam->w2n[i];
     }
-    if (rv == EXR_ERR_SUCCESS)
+    if (rv == EXR_ERR_SUCCESS && cam)
         rv = exr_attr_set_m44f(ctx, idx, "worldToCamera", &m1);
-    if (rv == EXR_ERR_SUCCESS)
+    if (rv == EXR_ERR_SUCCESS && cam)
         rv = exr_attr_set_m44f(ctx, idx, "worldToNDC", &m2);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_attr_set_string(ctx, idx, "fogpipe/scene", desc);
@@ -303,6 +305,32 @@ static int write_exr(const char *path, int w, int h, const out_chan_t *ch, int n
         return 1;
     }
     return 0;
+}
+
+/* ------------------------------------------------------------ fogmap */
+
+/* Patches of fog: a sum of smooth bumps, zero between them (so the sparse
+ * walk has empty blocks to skip), values up to about 1.5. */
+static float *make_fogmap(int size)
+{
+    float *img = calloc((size_t)size * size, sizeof *img);
+    unsigned s = 2024;
+    for (int b = 0; b < 18 && img; b++) {
+        double v[3];
+        for (int k = 0; k < 3; k++) {
+            s = s * 1103515245u + 12345u;
+            v[k] = ((s >> 8) % 10000) / 10000.0;
+        }
+        double r = 0.06 + 0.14 * v[2];
+        for (int j = 0; j < size; j++)
+            for (int i = 0; i < size; i++) {
+                double dx = (i + 0.5) / size - v[0], dy = (j + 0.5) / size - v[1];
+                double q = 1 - (dx * dx + dy * dy) / (r * r);
+                if (q > 0)
+                    img[(size_t)j * size + i] += (float)(q * q);
+            }
+    }
+    return img;
 }
 
 /* ------------------------------------------------------------ main */
@@ -442,6 +470,14 @@ int main(int argc, char **argv)
         out_chan_t sch[] = { { "Z", EXR_PIXEL_FLOAT, sz } };
         rc = write_exr(path, shadow, shadow, sch, 1, &sc, desc);
         free(sz);
+    }
+    if (!rc) {
+        char path[4300];
+        snprintf(path, sizeof path, "%s/fogmap.exr", dir);
+        float *fm = make_fogmap(64);
+        out_chan_t fch[] = { { "Y", EXR_PIXEL_FLOAT, fm } };
+        rc = fm ? write_exr(path, 64, 64, fch, 1, NULL, "fogpipe sample fogmap") : 1;
+        free(fm);
     }
     for (int c = 0; c < 4; c++)
         free(rgba[c]);

@@ -93,6 +93,27 @@ check "--preset" "$FOGPIPE" --preset "$T/look.preset" --density 0.02 -i "$S/scen
 check "command line wins over the preset" sh -c '"$FOGPIPE" --fog-color 1,0,0 -i "$1" -o "$2" &&
   "$IDIFF" -q -fail 0 "$2" "$3"' sh "$S/scene.0001.exr" "$T/preset-cli.exr" "$T/preset.exr"
 
+# The wavelet fogmap.
+FMAP="$S/fogmap.exr"
+check "--fogmap-preview writes the levels and the reconstruction" sh -c '"$FOGPIPE" --fogmap "$1" \
+  --levels 2 --fogmap-preview "$2/prev" > "$2/prev.txt" && test -f "$2/prev/level00.png" &&
+  test -f "$2/prev/level02.png" && test ! -e "$2/prev/level03.png" && test -f "$2/prev/reconstructed.png" &&
+  "$OIIOTOOL" --info "$2/prev/reconstructed.png" | grep -q "64 x   64"' sh "$FMAP" "$T"
+for basis in haar linear quadratic cubic; do
+  check "--fogmap --basis $basis: OpenCL within 1e-5 of the C reference on a whole frame" sh -c '
+    "$FOGPIPE" --float --fogmap "$1" --fog-rect -60,-20,60,160 --density 0.1 --height 0,5 --basis "$2" -i "$3" -o "$4/fm-cl.exr" &&
+    "$FOGPIPE" --cpu --float --fogmap "$1" --fog-rect -60,-20,60,160 --density 0.1 --height 0,5 --basis "$2" -i "$3" -o "$4/fm-cpu.exr" &&
+    "$IDIFF" -q -fail 1e-5 -warn 1e-5 "$4/fm-cl.exr" "$4/fm-cpu.exr"' sh "$FMAP" "$basis" "$S/scene.0002.exr" "$T"
+done
+"$OIIOTOOL" --pattern constant:color=1 16x16 1 -d float -o "$T/const.exr"
+check "a constant fogmap (repeat) equals homogeneous fog" sh -c '
+  "$FOGPIPE" --float --fogmap "$1" --fog-wrap repeat --basis cubic -i "$2" -o "$3/const-fm.exr" &&
+  "$FOGPIPE" --float -i "$2" -o "$3/const-plain.exr" &&
+  "$IDIFF" -q -fail 1e-5 -warn 1e-5 "$3/const-fm.exr" "$3/const-plain.exr"' sh "$T/const.exr" "$S/scene.0003.exr" "$T"
+fails "missing fogmap" 1 "nofog.png" "$T/o9.exr" "$FOGPIPE" --fogmap "$T/nofog.png" -i "$S/scene.0001.exr" -o "$T/o9.exr"
+fails "bad --fog-rect" 2 "fog-rect" "$T/o10.exr" "$FOGPIPE" --fogmap "$FMAP" --fog-rect 5,0,1,1 -i "$S/scene.0001.exr" -o "$T/o10.exr"
+fails "unknown basis" 2 "basis.*haar\|linear" - "$FOGPIPE" --basis septic
+
 # make install with DESTDIR: the installed binary runs from anywhere.
 if [ -n "${FP_BUILDDIR:-}" ] && env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install DESTDIR="$T/dest" prefix=/opt/fp >"$T/install.txt" 2>&1; then
   check "installed fogpipe runs from / with embedded kernels" sh -c 'cd / &&

@@ -14,9 +14,15 @@ fi
 G="$FP_SRCDIR/tests/golden"
 
 # name | options
-cases='height|--density 0.03 --height 0,12 --fog-color 0.75,0.78,0.82
+FM="--fogmap $FP_SAMPLES/fogmap.exr --fog-rect -60,-20,60,160 --density 0.1 --height 0,5 --levels 3"
+cases="height|--density 0.03 --height 0,12 --fog-color 0.75,0.78,0.82
 homogeneous|--visibility 150 --height 0,inf --fog-color 0.6,0.65,0.7
-layer|--density 0.08 --height 1,2,6 --fog-color 0.9,0.9,0.95'
+layer|--density 0.08 --height 1,2,6 --fog-color 0.9,0.9,0.95
+fogmap-haar|$FM --basis haar
+fogmap-linear|$FM --basis linear
+fogmap-quadratic|$FM --basis quadratic
+fogmap-cubic|$FM --basis cubic --haze 0.002"
+names=$(echo "$cases" | cut -d'|' -f1)
 
 echo "$cases" | while IFS='|' read -r name opts; do
   for f in 1 5; do
@@ -31,7 +37,7 @@ echo "$cases" | while IFS='|' read -r name opts; do
 done
 [ "$update" = 1 ] && exit 0
 
-for name in height homogeneous layer; do
+for name in $names; do
   for f in 1 5; do
     check "golden $name frame $f (idiff -fail 0.001 -failpercent 0.1 -hardfail 0.004)" \
       "$IDIFF" -fail 0.001 -failpercent 0.1 -hardfail 0.004 "$G/$name.$f.exr" "$T/$name.$f.exr"
