@@ -214,6 +214,62 @@ static void test_exact_vs_brute_force(void **state)
     print_message("exact integration vs brute force: max relative error %.2e (bound 1e-6)\n", worst);
 }
 
+/* --fog-offset, --fog-rotate and --fog-box, cameras inside and outside
+ * the box: the exact integral equals brute force over the clipped ray in
+ * the fog's own frame. */
+static void test_moved_fog_in_a_box(void **state)
+{
+    (void)state;
+    for (int degree = 0; degree <= 3; degree++) {
+        setup_t st;
+        make(&st, 13, 9, degree, FP_WRAP_CLAMP, 2, INFINITY, 0);
+        const double off[3] = { 3.5, -0.5, -2 }, ang = 0.7;
+        const double box[6] = { -8, -1, -4, 14, 9, 12 };
+        for (int i = 0; i < 3; i++)
+            st.d.fp[FP_F_OFF + i] = off[i];
+        st.d.fp[FP_F_COS] = cos(ang);
+        st.d.fp[FP_F_SIN] = sin(ang);
+        for (int i = 0; i < 6; i++)
+            st.d.fp[FP_F_BOX + i] = box[i];
+        int outside = 0;
+        for (int k = 0; k < 120; k++) {
+            double o[3], dir[3], len;
+            random_ray(k, o, dir, &len);
+            /* The fog's frame: undo the offset, turn by -angle. */
+            double p[3] = { o[0] - off[0], o[1] - off[1], o[2] - off[2] };
+            double q[3] = { cos(ang) * p[0] - sin(ang) * p[2], p[1], sin(ang) * p[0] + cos(ang) * p[2] };
+            double e[3] = { cos(ang) * dir[0] - sin(ang) * dir[2], dir[1],
+                            sin(ang) * dir[0] + cos(ang) * dir[2] };
+            double a = 0, b = len;
+            int in = 1;
+            for (int ax = 0; ax < 3; ax++) {
+                in &= q[ax] >= box[ax] && q[ax] <= box[ax + 3];
+                if (e[ax] == 0) {
+                    if (q[ax] < box[ax] || q[ax] > box[ax + 3])
+                        b = a;
+                    continue;
+                }
+                double t0 = (box[ax] - q[ax]) / e[ax], t1 = (box[ax + 3] - q[ax]) / e[ax];
+                a = fmax(a, fmin(t0, t1));
+                b = fmin(b, fmax(t0, t1));
+            }
+            outside += !in;
+            double want = 0;
+            if (b > a) {
+                double q0[3] = { q[0] + a * e[0], q[1] + a * e[1], q[2] + a * e[2] };
+                want = brute(&st, q0, e, b - a, INFINITY);
+            }
+            double got = fp_integrate_optical_depth(&st.d, o, dir, len, 0);
+            double err = fabs(got - want) / (fabs(want) + 1e-2 * st.p.fog.density * len);
+            if (!(err < 1e-6))
+                fail_msg("degree %d ray %d (camera %s the box): exact %.12g brute force %.12g",
+                         degree, k, in ? "inside" : "outside", got, want);
+        }
+        assert_true(outside > 10);
+        unmake(&st);
+    }
+}
+
 static void test_constant_is_homogeneous(void **state)
 {
     (void)state;
@@ -273,6 +329,15 @@ static void test_opencl_parity(void **state)
     for (int degree = 0; degree <= 3; degree++) {
         setup_t st;
         make(&st, 40, 24, degree, degree % 3, 3, degree == 1 ? 12.0 : INFINITY, 1);
+        if (degree & 1) {
+            /* A moved, turned fog in a box the camera is outside of. */
+            const double box[6] = { -5, -1, -5, 20, 8, 15 };
+            for (int i = 0; i < 6; i++)
+                st.d.fp[FP_F_BOX + i] = box[i];
+            st.d.fp[FP_F_OFF] = 1.5;
+            st.d.fp[FP_F_COS] = cos(0.3);
+            st.d.fp[FP_F_SIN] = sin(0.3);
+        }
         fp_view_t v;
         assert_int_equal(make_view(&v, w, h, 2 + 4 * degree, -20), 0);
         for (size_t i = 0; i < n; i++) {
@@ -359,6 +424,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_exact_vs_brute_force),
+        cmocka_unit_test(test_moved_fog_in_a_box),
         cmocka_unit_test(test_constant_is_homogeneous),
         cmocka_unit_test(test_sparse_exact),
         cmocka_unit_test(test_opencl_parity),
