@@ -1,142 +1,399 @@
-// fogpipe: extern "C" bridge to OpenImageIO (see oiio_bridge.h).
+// fogpipe: extern "C" bridge to OpenImageIO 2.4 (see oiio_bridge.h).
+// C++ stays in this file: every entry point catches everything, prints one
+// line through fp_error() and returns a status.
 #include "oiio_bridge.h"
 
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
 #include <cerrno>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <new>
 #include <string>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <vector>
 
-extern "C" int fp_error(const char *fmt, ...);
+extern "C" {
+#include "fp.h"
+}
 
+using OIIO::ImageBuf;
 using OIIO::ImageInput;
 using OIIO::ImageOutput;
 using OIIO::ImageSpec;
 using OIIO::TypeDesc;
 
+namespace {
+
+const char *name_of(const char *path)
+{
+    return path && *path ? path : "(no file name)";
+}
+
+// OpenImageIO's messages may span lines; ours are one line each.
+std::string one_line(std::string s)
+{
+    while (!s.empty() && (s.back() == '\n' || s.back() == ' '))
+        s.pop_back();
+    for (size_t i; (i = s.find('\n')) != std::string::npos;)
+        s.replace(i, 1, "; ");
+    return s.empty() ? "no reason given" : s;
+}
+
+// Runs an entry point's body; no exception gets past this.
+template <typename F> int guarded(const char *path, const char *doing, F &&body)
+{
+    try {
+        return body();
+    } catch (const std::bad_alloc &) {
+        return fp_error("%s: out of memory %s", name_of(path), doing);
+    } catch (const std::exception &e) {
+        return fp_error("%s: error %s (%s)", name_of(path), doing, e.what());
+    } catch (...) {
+        return fp_error("%s: unexpected error %s", name_of(path), doing);
+    }
+}
+
+// Some channels of an image, interleaved, rows top to bottom as displayed.
+struct Pixels {
+    std::vector<float> v;
+    int width = 0, height = 0, nchannels = 0;
+    int bits = 0;  // 8 when the channels are stored in 8 bits, else 16 (or more)
+};
+
+// Opens `path` for reading values as data.  Prints the message and returns
+// null on failure.
+std::unique_ptr<ImageInput> open_data(const char *path)
+{
+    struct stat st;
+    if (stat(path, &st) != 0) {
+        fp_error("%s: cannot open the image (%s)", path, strerror(errno));
+        return nullptr;
+    }
+    if (S_ISDIR(st.st_mode)) {
+        fp_error("%s: is a directory, expected an image file", path);
+        return nullptr;
+    }
+    ImageSpec config;
+    // CMYK (TIFF, PSD) and YCbCr (DPX) as stored, not converted to RGB.
+    config.attribute("oiio:RawColor", 1);
+    // PNG, TIFF, PSD... readers premultiply unassociated alpha by default
+    // (PNG in linearized sRGB), which would change the colour channels.
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = ImageInput::open(path, &config);
+    if (!in)
+        fp_error("%s: not an image OpenImageIO can read (%s)", path,
+                 one_line(OIIO::geterror()).c_str());
+    return in;
+}
+
+// Reads stored integers and divides: OpenImageIO's own conversion multiplies
+// by 1/255 (1/65535), which misses the correctly rounded value for about
+// half the codes (128 would not read back as 128.0f / 255.0f).
+template <typename T>
+bool read_unorm(ImageInput &in, int chbegin, int chend, TypeDesc type, float top,
+                std::vector<float> &v)
+{
+    std::vector<T> raw(v.size());
+    if (!in.read_image(0, 0, chbegin, chend, type, raw.data()))
+        return false;
+    for (size_t i = 0; i < raw.size(); i++)
+        v[i] = (float)raw[i] / top;
+    return true;
+}
+
+// Reads channels [chbegin, chend) of the first subimage's data window, and
+// applies the "Orientation" so that row 0 is the displayed top row.
+int read_channels(ImageInput &in, const char *path, int chbegin, int chend, Pixels &px)
+{
+    const ImageSpec &spec = in.spec();
+    if (spec.deep)
+        return fp_error("%s: deep image, expected flat pixels", path);
+    if (spec.depth != 1 || spec.width <= 0 || spec.height <= 0)
+        return fp_error("%s: expected a 2D image, got %dx%dx%d pixels", path, spec.width,
+                        spec.height, spec.depth);
+    int nch = chend - chbegin;
+    size_t n = (size_t)spec.width * spec.height * nch;
+    // One storage type for the channels read, or UNKNOWN when they differ
+    // (EXR may mix half and float).
+    TypeDesc stored = spec.channelformat(chbegin);
+    for (int c = chbegin + 1; c < chend; c++)
+        if (spec.channelformat(c) != stored)
+            stored = TypeDesc::UNKNOWN;
+    px.v.assign(n, 0.0f);
+    bool ok;
+    if (stored == TypeDesc::UINT8)
+        ok = read_unorm<uint8_t>(in, chbegin, chend, TypeDesc::UINT8, 255.0f, px.v);
+    else if (stored == TypeDesc::UINT16)
+        ok = read_unorm<uint16_t>(in, chbegin, chend, TypeDesc::UINT16, 65535.0f, px.v);
+    else
+        ok = in.read_image(0, 0, chbegin, chend, TypeDesc::FLOAT, px.v.data());
+    if (!ok)
+        return fp_error("%s: cannot read the pixels (%s)", path,
+                        one_line(in.geterror()).c_str());
+    px.width = spec.width;
+    px.height = spec.height;
+    px.nchannels = nch;
+    px.bits = stored == TypeDesc::UINT8 ? 8 : 16;
+
+    // ImageInput returns rows as stored; a TIFF or JPEG may say they are
+    // to be flipped or rotated for display (EXIF/TIFF Orientation 2..8).
+    int orientation = spec.get_int_attribute("Orientation", 1);
+    if (orientation >= 2 && orientation <= 8) {
+        ImageSpec s(px.width, px.height, nch, TypeDesc::FLOAT);
+        s.attribute("Orientation", orientation);
+        ImageBuf stored_buf(s, px.v.data());
+        ImageBuf shown = OIIO::ImageBufAlgo::reorient(stored_buf);
+        std::vector<float> v(n);
+        if (shown.has_error() || !shown.get_pixels(shown.roi(), TypeDesc::FLOAT, v.data()))
+            return fp_error("%s: cannot apply the image's orientation %d (%s)", path,
+                            orientation, one_line(shown.geterror()).c_str());
+        px.v.swap(v);
+        px.width = shown.spec().width;
+        px.height = shown.spec().height;
+    }
+    return FP_OK;
+}
+
+// A temporary file that is removed unless kept: one exit path for every
+// failure, exceptions included.
+struct TmpFile {
+    std::string name;
+    bool keep = false;
+    ~TmpFile()
+    {
+        if (!name.empty() && !keep)
+            unlink(name.c_str());
+    }
+};
+
+// Interleaved gradient noise (J. Jimenez, "Next Generation Post Processing
+// in Call of Duty: Advanced Warfare", SIGGRAPH 2014 course): a threshold in
+// [0,1) whose neighbours differ a lot (blue-noise-like), from the pixel
+// position alone, so the same image dithers to the same bytes.
+double dither_threshold(int x, int y)
+{
+    double f = 0.06711056 * x + 0.00583715 * y;
+    f = 52.9829189 * (f - std::floor(f));
+    return f - std::floor(f);
+}
+
+// floor(v * top + t): t = 1/2 rounds to nearest; a threshold in [0,1) is a
+// +-1/2 step dither, which leaves 0 and top exact and moves no value by a
+// whole step.  Every channel of a pixel gets the same threshold, so gray
+// stays gray (no coloured noise).
+template <typename T>
+std::vector<T> quantize(const float *pixels, int width, int height, int nch, double top,
+                        bool dither)
+{
+    size_t npix = (size_t)width * height;
+    std::vector<T> q(npix * nch);
+    for (size_t p = 0; p < npix; p++) {
+        double t = dither ? dither_threshold((int)(p % width), (int)(p / width)) : 0.5;
+        for (int c = 0; c < nch; c++) {
+            double v = pixels[p * nch + c];
+            v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0;  // NaN too goes to 0
+            q[p * nch + c] = (T)std::floor(v * top + t);
+        }
+    }
+    return q;
+}
+
+// Writes an integer image atomically.  With `fewer_bits_ok`, a 16-bit
+// request goes to 8 bits in a format that holds only 8 (JPEG); otherwise
+// that is an error.
+int write_pixels(const char *path, const float *pixels, int width, int height, int nch,
+                 int bits, bool dither, bool fewer_bits_ok)
+{
+    if (!path || !*path)
+        return fp_error("fp_oiio_write_preview: no file name");
+    if (!pixels || width <= 0 || height <= 0)
+        return fp_error("%s: expected pixels of a positive size, got %dx%d", path, width,
+                        height);
+    if (nch != 1 && nch != 3 && nch != 4)
+        return fp_error("%s: expected 1, 3 or 4 channels, got %d", path, nch);
+    if (bits != 8 && bits != 16)
+        return fp_error("%s: expected 8 or 16 bits per channel, got %d", path, bits);
+
+    std::string p(path);
+    size_t slash = p.rfind('/');
+    std::string dir = slash == std::string::npos ? "" : p.substr(0, slash + 1);
+    std::string base = slash == std::string::npos ? p : p.substr(slash + 1);
+    size_t dot = base.rfind('.');
+    if (dot == std::string::npos || dot == 0 || dot + 1 == base.size())
+        return fp_error("%s: no extension to choose the image format by (expected .png, "
+                        ".tif or .jpg)", path);
+    std::string ext = base.substr(dot);
+    // OpenImageIO picks the format by the extension: keep it last.
+    TmpFile tmp;
+    tmp.name = dir + "." + base.substr(0, dot) + ".tmp." + std::to_string((long)getpid()) + ext;
+
+    auto out = ImageOutput::create(tmp.name);
+    if (!out)
+        return fp_error("%s: no image format for the extension \"%s\" (expected .png, .tif, "
+                        ".jpg or another OpenImageIO writes)", path, ext.c_str());
+    if (nch == 4 && !out->supports("alpha"))
+        return fp_error("%s: the %s format has no alpha channel; expected 1 or 3 channels",
+                        path, out->format_name());
+
+    TypeDesc type = bits == 16 ? TypeDesc::UINT16 : TypeDesc::UINT8;
+    ImageSpec spec(width, height, nch, type);
+    spec.attribute("oiio:ColorSpace", "sRGB");
+    // The values are written as given: no de-association of alpha (PNG)
+    // and TIFF marks the alpha as unassociated.
+    spec.attribute("oiio:UnassociatedAlpha", 1);
+    // The TIFF writer stamps the current time unless DateTime is set; an
+    // empty one writes no tag, so the same pixels give the same bytes.
+    spec.attribute("DateTime", "");
+    if (!out->open(tmp.name, spec))
+        return fp_error("%s: cannot write (%s)", path, one_line(out->geterror()).c_str());
+    // Writers adapt what they cannot store (JPEG: 8 bits, no alpha) silently.
+    const ImageSpec &got = out->spec();
+    if (got.nchannels != nch)
+        return fp_error("%s: the %s format stores %d channels here, not %d", path,
+                        out->format_name(), got.nchannels, nch);
+    if (got.format != type) {
+        if (!(fewer_bits_ok && got.format == TypeDesc::UINT8))
+            return fp_error("%s: the %s format stores %s, not %d bits per channel (expected "
+                            "8 bits, or a .png or .tif name)", path, out->format_name(),
+                            got.format.c_str(), bits);
+        type = TypeDesc::UINT8;
+    }
+
+    bool ok;
+    if (type == TypeDesc::UINT16) {
+        auto q = quantize<uint16_t>(pixels, width, height, nch, 65535.0, dither);
+        ok = out->write_image(type, q.data());
+    } else {
+        auto q = quantize<uint8_t>(pixels, width, height, nch, 255.0, dither);
+        ok = out->write_image(type, q.data());
+    }
+    ok = ok && out->close();
+    if (!ok)
+        return fp_error("%s: cannot write (%s)", path, one_line(out->geterror()).c_str());
+    out.reset();
+    if (rename(tmp.name.c_str(), path) != 0)
+        return fp_error("%s: cannot rename %s into place (%s)", path, tmp.name.c_str(),
+                        strerror(errno));
+    tmp.keep = true;
+    return FP_OK;
+}
+
+}  // namespace
+
 extern "C" int fp_oiio_read_channel(const char *path, const char *channel, float **data,
                                     int *width, int *height)
 {
-    try {
-        // Values are data: no linearization, no premultiplication.
-        ImageSpec config;
-        config.attribute("oiio:RawColor", 1);
-        config.attribute("oiio:UnassociatedAlpha", 1);
-        auto in = ImageInput::open(path, &config);
-        if (!in) {
-            std::string e = OIIO::geterror();
-            return fp_error("%s: cannot read the image (%s)", path,
-                            e.empty() ? "unknown format" : e.c_str());
-        }
+    return guarded(path, "reading the image", [&]() -> int {
+        if (!path || !*path || !data || !width || !height)
+            return fp_error("fp_oiio_read_channel: expected a file name and three outputs");
+        auto in = open_data(path);
+        if (!in)
+            return FP_ERR;
         const ImageSpec &spec = in->spec();
         int ch = 0;
         if (channel && *channel) {
             ch = spec.channelindex(channel);
             if (ch < 0) {
                 std::string names;
-                for (const auto &n : spec.channelnames)
-                    names += (names.empty() ? "" : ", ") + n;
-                return fp_error("%s: no channel '%s' (the image has %s)", path, channel,
+                for (size_t i = 0; i < spec.channelnames.size() && i < 24; i++)
+                    names += (i ? ", " : "") + spec.channelnames[i];
+                if (spec.channelnames.size() > 24)
+                    names += ", ...";
+                return fp_error("%s: no channel \"%s\" (the image has %s)", path, channel,
                                 names.c_str());
             }
         }
-        size_t n = (size_t)spec.width * spec.height;
-        if (n == 0 || spec.depth > 1)
-            return fp_error("%s: expected a 2D image, got %dx%dx%d", path, spec.width,
-                            spec.height, spec.depth);
-        float *buf = (float *)malloc(n * sizeof(float));
+        if (spec.x != spec.full_x || spec.y != spec.full_y || spec.width != spec.full_width ||
+            spec.height != spec.full_height)
+            fp_warn("%s: the data window (%dx%d at %d,%d) differs from the display window "
+                    "(%dx%d at %d,%d); using the data window's pixels",
+                    path, spec.width, spec.height, spec.x, spec.y, spec.full_width,
+                    spec.full_height, spec.full_x, spec.full_y);
+        Pixels px;
+        if (read_channels(*in, path, ch, ch + 1, px) != FP_OK)
+            return FP_ERR;
+        float *buf = (float *)malloc(px.v.size() * sizeof(float));
         if (!buf)
-            return fp_error("%s: out of memory", path);
-        if (!in->read_image(0, 0, ch, ch + 1, TypeDesc::FLOAT, buf)) {
-            std::string e = in->geterror();
-            free(buf);
-            return fp_error("%s: cannot read the pixels (%s)", path, e.c_str());
-        }
+            return fp_error("%s: out of memory for %dx%d pixels", path, px.width, px.height);
+        memcpy(buf, px.v.data(), px.v.size() * sizeof(float));
         *data = buf;
-        *width = spec.width;
-        *height = spec.height;
-        return 0;
-    } catch (const std::exception &e) {
-        return fp_error("%s: %s", path, e.what());
-    } catch (...) {
-        return fp_error("%s: unexpected error reading the image", path);
-    }
-}
-
-// Deterministic dither in [-1/2, 1/2): a hash of the pixel and channel.
-static double dither_at(int x, int y, int c)
-{
-    uint32_t h = (uint32_t)x * 73856093u ^ (uint32_t)y * 19349663u ^ (uint32_t)c * 83492791u;
-    h ^= h >> 13;
-    h *= 0x5bd1e995u;
-    h ^= h >> 15;
-    return (h & 0xffffffu) / 16777216.0 - 0.5;
+        *width = px.width;
+        *height = px.height;
+        return FP_OK;
+    });
 }
 
 extern "C" int fp_oiio_write_preview(const char *path, const float *pixels, int width,
                                      int height, int nchannels, int bits, int dither)
 {
-    std::string tmp;
-    try {
-        if (bits != 8 && bits != 16)
-            return fp_error("%s: expected 8 or 16 bits, got %d", path, bits);
-        std::string p(path);
-        size_t slash = p.rfind('/');
-        std::string dir = slash == std::string::npos ? "" : p.substr(0, slash + 1);
-        std::string base = slash == std::string::npos ? p : p.substr(slash + 1);
-        size_t dot = base.rfind('.');
-        std::string ext = dot == std::string::npos ? "" : base.substr(dot);
-        // Keep the extension: OpenImageIO picks the format from it.
-        tmp = dir + "." + base + ".tmp." + std::to_string((long)getpid()) + ext;
-        auto out = ImageOutput::create(tmp);
-        if (!out)
-            return fp_error("%s: no image format for this extension (%s)", path,
-                            OIIO::geterror().c_str());
-        double top = bits == 8 ? 255.0 : 65535.0;
-        size_t n = (size_t)width * height * nchannels;
-        std::vector<uint16_t> q16(bits == 16 ? n : 0);
-        std::vector<uint8_t> q8(bits == 8 ? n : 0);
-        for (size_t i = 0; i < n; i++) {
-            int c = (int)(i % nchannels), x = (int)(i / nchannels % width),
-                y = (int)(i / nchannels / width);
-            double v = std::isfinite(pixels[i]) ? pixels[i] : 0.0;
-            v = std::fmin(1.0, std::fmax(0.0, v)) * top + 0.5;
-            if (dither)
-                v += dither_at(x, y, c);
-            v = std::fmin(top, std::fmax(0.0, std::floor(v)));
-            if (bits == 16)
-                q16[i] = (uint16_t)v;
-            else
-                q8[i] = (uint8_t)v;
+    return guarded(path, "writing the image", [&]() -> int {
+        return write_pixels(path, pixels, width, height, nchannels, bits, dither != 0, false);
+    });
+}
+
+extern "C" int fp_oiio_tile_sheet(const char *const *paths, int count, int columns,
+                                  const char *out_path)
+{
+    return guarded(out_path, "making the contact sheet", [&]() -> int {
+        if (!out_path || !*out_path)
+            return fp_error("fp_oiio_tile_sheet: no output file name");
+        if (!paths || count < 1)
+            return fp_error("%s: expected at least one image for the contact sheet, got %d",
+                            out_path, count);
+        if (columns < 1)
+            return fp_error("%s: expected at least one column, got %d", out_path, columns);
+        int rows = (count + columns - 1) / columns;
+        std::vector<float> sheet;
+        Pixels cell, first;
+        int bits = 8;
+        for (int i = 0; i < count; i++) {
+            if (!paths[i] || !*paths[i])
+                return fp_error("%s: image %d of the contact sheet has no file name",
+                                out_path, i + 1);
+            auto in = open_data(paths[i]);
+            if (!in)
+                return FP_ERR;
+            if (read_channels(*in, paths[i], 0, in->spec().nchannels, cell) != FP_OK)
+                return FP_ERR;
+            in.reset();
+            if (i == 0) {
+                if (cell.nchannels != 1 && cell.nchannels != 3 && cell.nchannels != 4)
+                    return fp_error("%s: %d channels; expected 1, 3 or 4 (gray, RGB, RGBA) "
+                                    "for a contact sheet", paths[i], cell.nchannels);
+                if ((long long)cell.width * columns > INT_MAX ||
+                    (long long)cell.height * rows > INT_MAX)
+                    return fp_error("%s: a %d x %d sheet of %dx%d images is too large",
+                                    out_path, columns, rows, cell.width, cell.height);
+                first.width = cell.width;
+                first.height = cell.height;
+                first.nchannels = cell.nchannels;
+                sheet.assign((size_t)cell.width * columns * cell.height * rows *
+                                 cell.nchannels, 0.0f);
+            } else if (cell.width != first.width || cell.height != first.height ||
+                       cell.nchannels != first.nchannels) {
+                return fp_error("%s: %dx%d pixels, %d channel(s); expected %dx%d pixels, %d "
+                                "channel(s) like %s (contact sheet cells share one size)",
+                                paths[i], cell.width, cell.height, cell.nchannels,
+                                first.width, first.height, first.nchannels, paths[0]);
+            }
+            if (cell.bits > bits)
+                bits = 16;
+            size_t row_len = (size_t)cell.width * cell.nchannels;
+            size_t sheet_row = row_len * columns;
+            size_t x0 = (size_t)(i % columns) * row_len, y0 = (size_t)(i / columns) * cell.height;
+            for (int y = 0; y < cell.height; y++)
+                memcpy(&sheet[(y0 + y) * sheet_row + x0], &cell.v[y * row_len],
+                       row_len * sizeof(float));
         }
-        ImageSpec spec(width, height, nchannels, bits == 16 ? TypeDesc::UINT16 : TypeDesc::UINT8);
-        bool ok = out->open(tmp, spec) &&
-                  out->write_image(bits == 16 ? TypeDesc::UINT16 : TypeDesc::UINT8,
-                                   bits == 16 ? (const void *)q16.data() : (const void *)q8.data()) &&
-                  out->close();
-        if (!ok) {
-            std::string e = out->geterror();
-            unlink(tmp.c_str());
-            return fp_error("%s: cannot write (%s)", path, e.c_str());
-        }
-        if (rename(tmp.c_str(), path) != 0) {
-            int err = errno;
-            unlink(tmp.c_str());
-            return fp_error("%s: cannot write (%s)", path, strerror(err));
-        }
-        return 0;
-    } catch (const std::exception &e) {
-        if (!tmp.empty())
-            unlink(tmp.c_str());
-        return fp_error("%s: %s", path, e.what());
-    } catch (...) {
-        if (!tmp.empty())
-            unlink(tmp.c_str());
-        return fp_error("%s: unexpected error writing the image", path);
-    }
+        return write_pixels(out_path, sheet.data(), first.width * columns,
+                            first.height * rows, first.nchannels, bits, false, true);
+    });
 }

@@ -1,7 +1,12 @@
 /* fogpipe: a thin extern "C" bridge to OpenImageIO (C++), for every image
- * format other than the EXR frames: fogmaps in, previews out.
- * No C++ exception crosses this boundary; failures print one line naming
- * the file and return non-zero. */
+ * format other than the EXR frames: fogmaps in, previews and contact sheets
+ * out.
+ *
+ * Every function returns 0 (FP_OK) on success, or non-zero after printing
+ * one line through fp_error() that names the file and says what was
+ * expected.  No C++ exception crosses this boundary.  The functions keep no
+ * state: they may be called from several threads at once on different
+ * files. */
 #ifndef FP_OIIO_BRIDGE_H
 #define FP_OIIO_BRIDGE_H
 
@@ -9,20 +14,57 @@
 extern "C" {
 #endif
 
-/* Read one channel of any image OpenImageIO reads, as data: no color
- * conversion, unassociated alpha, integer types mapped linearly to [0,1]
- * (8-bit 128 is 128/255).  `channel` NULL or "" means the first channel.
- * Row 0 is the image's top row; the data window's pixels are returned.
- * *data is malloc'd (the caller frees it). */
+/* Read one channel of any image OpenImageIO reads (PNG, TIFF, EXR, JPEG...)
+ * as data, not color: no color conversion, no linearization, alpha left
+ * unassociated, CMYK/YCbCr left as stored.  8- and 16-bit unsigned integers
+ * map linearly to [0,1] exactly (8-bit 128 is 128.0f/255.0f, 16-bit 65535 is
+ * 1.0f); other integer types as OpenImageIO converts them (signed ones to
+ * [-1,1]); half and float values are returned as stored, unclamped.
+ *
+ * `channel` is a channel name ("G", "density", "depth.Z"); NULL or "" means
+ * the first channel.  Only the first subimage is read.
+ *
+ * The pixels returned are the whole data window, which may be smaller or
+ * larger than the display window (EXR) and whose origin is dropped: a
+ * warning is printed when the two windows differ.  Row 0 is the image's top
+ * row as displayed: a TIFF/JPEG "Orientation" other than 1 is applied, so
+ * *width and *height are the displayed size.
+ *
+ * On success *data is a malloc'd array of *width x *height floats, row by
+ * row, which the caller frees with free(); on failure the outputs are left
+ * untouched. */
 int fp_oiio_read_channel(const char *path, const char *channel, float **data, int *width,
                          int *height);
 
-/* Write an 8- or 16-bit image (format by the file's extension) from
- * display-referred floats in [0,1] (clamped), nchannels 1, 3 or 4
- * interleaved, with a deterministic +-1/2 step dither when `dither` is set
- * (no banding, same bytes every run).  Atomic: temporary file + rename. */
+/* Write an 8- or 16-bit integer image, the format chosen by the extension of
+ * `path` (.png, .tif/.tiff, .jpg...), from display-referred floats:
+ * `nchannels` (1 = gray, 3 = RGB, 4 = RGBA with straight, unassociated
+ * alpha) interleaved per pixel, rows top to bottom.  Values are clamped to
+ * [0,1] (NaN is written as 0) and written as they are, tagged sRGB, with no
+ * further conversion.
+ *
+ * `dither` non-zero adds a deterministic per-pixel threshold before
+ * rounding, so that a smooth gradient shows no banding; no value moves by a
+ * whole step or more, 0 and 1 stay exact, and the same input gives the same
+ * bytes (TIFFs get no time stamp).  With `dither` zero values are rounded to
+ * the nearest code.
+ *
+ * A format that cannot store the request is an error: 16 bits in JPEG, 4
+ * channels in JPEG.  The write is atomic: the file is written under a
+ * temporary name in the same directory (".<name>.tmp.<pid>.<ext>") and
+ * renamed over `path`; on failure nothing is left behind. */
 int fp_oiio_write_preview(const char *path, const float *pixels, int width, int height,
                           int nchannels, int bits, int dither);
+
+/* Contact sheet: read `count` preview images (which must all have the same
+ * size and number of channels; the first odd one is named in the error),
+ * tile them left to right, top to bottom in `columns` columns and
+ * ceil(count / columns) rows, with no gaps (cells past the last image stay
+ * black and transparent), and write the sheet atomically to `out_path` as
+ * fp_oiio_write_preview() does, without dither.  The sheet has 16 bits per
+ * channel if any input has more than 8 and the output format can store 16,
+ * else 8; integer codes are carried over exactly. */
+int fp_oiio_tile_sheet(const char *const *paths, int count, int columns, const char *out_path);
 
 #ifdef __cplusplus
 }
