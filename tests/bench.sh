@@ -11,6 +11,7 @@ trap 'rm -rf "$tmp"' EXIT
   echo "# fogpipe benchmarks"
   echo
   echo "Written by \`make bench\` on $(date -u +%Y-%m-%d) ($(uname -m), $(nproc) cores: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'))."
+  echo "Load average when it started: $(cut -d' ' -f1-3 /proc/loadavg) (other work on the machine slows the figures down)."
   echo "Timings are figures, not pass/fail thresholds. Fog stage times include the upload of"
   echo "the depth and the read-back of the fog layer. 800x600 is the resolution of seed 000."
   echo
