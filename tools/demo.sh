@@ -5,8 +5,11 @@ set -eu
 bin=$1 samples=$2
 out=demo-out
 mkdir -p "$out"
+# Patches of wavelet fog over the ground from the sample fogmap, a thin haze.
 "$bin" -i "$samples/scene.####.exr" -o "$out/fogged.####.exr" --frames 1-8 \
-  --density 0.03 --height 0,12 --fog-color 0.75,0.78,0.82
+  --fogmap "$samples/fogmap.exr" --fog-rect -60,-20,60,160 --basis quadratic --levels 3 \
+  --density 0.1 --height 0,5 --haze 0.004 --fog-color 0.75,0.78,0.82
+"$bin" --fogmap "$samples/fogmap.exr" --basis quadratic --levels 3 --fogmap-preview "$out/levels" >/dev/null
 if command -v oiiotool >/dev/null; then
   for f in 1 8; do
     n=$(printf %04d "$f")
@@ -15,3 +18,4 @@ if command -v oiiotool >/dev/null; then
 fi
 echo "demo: sample frames in $samples/scene.0001.exr .. scene.0008.exr"
 echo "demo: fogged frames in $(pwd)/$out/fogged.0001.exr .. fogged.0008.exr (PNG previews of 1 and 8 beside them)"
+echo "demo: the fogmap's wavelet levels in $(pwd)/$out/levels/"
