@@ -1,7 +1,9 @@
 #include "fogmap.h"
+#include "animate.h"
 #include "fp.h"
 #include "oiio_bridge.h"
 #include "options.h"
+#include "seq.h"
 
 #include <errno.h>
 #include <math.h>
@@ -181,21 +183,44 @@ int fp_fogmap_commit(const fp_params_t *p, fp_cl_t *cl, fp_fogmap_stage_t *s,
     const fp_fogmap_params_t *fm = &p->fogmap;
     memset(s, 0, sizeof *s);
     *active = 0;
-    if (!fm->fogmap)
-        return FP_OK;
+    int rc = fp_animate_check(p);
+    if (rc || !fm->fogmap)
+        return rc;
     const double *r = fm->rect;
     if (!(r[2] > r[0]) || !(r[3] > r[1]))
         return fp_usage_error("--fog-rect: expected A0 < A1 and B0 < B1, got %g,%g,%g,%g",
                               r[0], r[1], r[2], r[3]);
+    /* A sequence is set up from its first key. */
+    char first[4096];
+    const char *path = fm->fogmap;
+    if (fp_seq_has_placeholder(fm->fogmap) == 1) {
+        fp_frame_list_t keys = { NULL, 0 };
+        if ((rc = fp_frames_scan(fm->fogmap, &keys)))
+            return rc;
+        rc = fp_seq_format(fm->fogmap, keys.frames[0], first, sizeof first);
+        fp_frames_free(&keys);
+        if (rc)
+            return rc;
+        path = first;
+    }
     float *img = NULL;
-    int w, h, rc;
-    if ((rc = fp_oiio_read_channel(fm->fogmap, fm->channel, &img, &w, &h)))
+    int w, h;
+    if ((rc = fp_oiio_read_channel(path, fm->channel, &img, &w, &h)))
         return rc;
     rc = fp_fogmap_setup(p, cl, img, w, h, s, d);
+    if (rc == FP_OK && fp_animate_fogmap_animated(p))
+        rc = fp_fogmap_animate(p, img, w, h, s, d);
     free(img);
     if (rc == FP_OK)
         *active = 1;
     return rc;
+}
+
+int fp_fogmap_animate(const fp_params_t *p, const float *img, int w, int h,
+                      fp_fogmap_stage_t *s, const fp_integrate_data_t *d)
+{
+    return fp_animate_open(p, img, w, h, &s->map, d->fp[FP_F_USCALE], d->fp[FP_F_VSCALE],
+                           &s->anim);
 }
 
 int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, int h,
@@ -271,18 +296,61 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
         for (int k = 0; k <= sf->hi - sf->lo && k < 16; k++)
             v[FP_F_TAPS + 18 * f + 2 + k] = sf->tap[k];
     }
-    double cell_to_fog = 1.0 / fmax(v[FP_F_USCALE], v[FP_F_VSCALE]);
-    if ((rc = build_tables(m, img, cell_to_fog, fm->deconstruct, &s->tables)))
+    s->cell_to_fog = 1.0 / fmax(v[FP_F_USCALE], v[FP_F_VSCALE]);
+    s->decompositions = 1;
+    if ((rc = build_tables(m, img, s->cell_to_fog, fm->deconstruct, &s->tables)))
         return rc;
     d->tables = &s->tables;
     return FP_OK;
 }
 
-void fp_fogmap_frame(const fp_params_t *p, const fp_view_t *v, fp_integrate_data_t *d)
+static void free_tables(fp_fog_tables_t *t)
+{
+    free(t->coef);
+    free(t->occ);
+    memset(t, 0, sizeof *t);
+}
+
+int fp_fogmap_frame(const fp_params_t *p, fp_cl_t *cl, fp_fogmap_stage_t *s, long frame,
+                    const fp_view_t *v, fp_integrate_data_t *d)
 {
     /* Angle of one pixel at the image center, from the NDC->camera map. */
     double pixel = fabs(v->h[4] * v->ndc_scale[1]);
     d->fp[FP_F_FOOTPRINT] = p->fogmap.lod_footprint * pixel;
+    fp_animate_transform(p, frame, d);
+    if (!s)
+        return FP_OK;
+    if (!s->anim) {
+        s->decompose_ms = s->animate_ms = 0;   /* nothing done per frame */
+        s->decompositions = 0;
+        return FP_OK;
+    }
+    double t0 = now_ms();
+    fp_animate_frame_t af;
+    int rc = fp_animate_fogmap(s->anim, cl, frame, &af);
+    if (rc)
+        return rc;
+    s->decompose_ms = af.decompose_ms;
+    s->decompositions = af.decompositions;
+    if (af.decompositions)
+        s->used_cl = af.used_cl;
+    if (af.changed) {
+        fp_fog_tables_t t;
+        if ((rc = build_tables(af.map, af.img, s->cell_to_fog, p->fogmap.deconstruct, &t))) {
+            free_tables(&t);
+            return rc;
+        }
+        free_tables(&s->prev);
+        s->prev = s->tables;
+        s->tables = t;
+        d->tables = &s->tables;
+    }
+    s->animate_ms = now_ms() - t0;
+    if (af.decompositions)
+        fp_info("frame %ld: fogmap decomposed in %.1f ms (%d, %s), %.1f ms for the fogmap in all",
+                frame, s->decompose_ms, af.decompositions, af.used_cl ? "OpenCL" : "C",
+                s->animate_ms);
+    return FP_OK;
 }
 
 static int write_grey(const char *dir, const char *name, const float *data, int w, int h,
@@ -347,7 +415,8 @@ int fp_fogmap_preview(const fp_fogmap_stage_t *s, const char *dir)
 void fp_fogmap_release(fp_fogmap_stage_t *s)
 {
     fp_fogmap_free(&s->map);
-    free(s->tables.coef);
-    free(s->tables.occ);
+    free_tables(&s->tables);
+    free_tables(&s->prev);
+    fp_animate_close(s->anim);
     memset(s, 0, sizeof *s);
 }

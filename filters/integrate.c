@@ -44,10 +44,12 @@ const fp_option_t fp_integrate_options[] = {
     { "haze-height", 0, FP_OPT_VEC, FOG(haze_height), 3, 2, "0,inf,inf", -1e9, INFINITY, NULL,
       "Y0,H[,TOP]", "height profile of the haze, as --height", NULL, 0 },
     { "fog-color", 0, FP_OPT_VEC, FOG(color), 3, 3, "0.7,0.75,0.8", 0, 1e6, NULL, "R,G,B",
-      "fog color: in-scattered ambient radiance, scene-linear", NULL, 0 },
+      "fog color: in-scattered ambient radiance, scene-linear, in the working space "
+      "(--working-space)", NULL, 0 },
     { "fog-box", 0, FP_OPT_VEC, FOG(box), 6, 6, "-inf,-inf,-inf,inf,inf,inf", -INFINITY,
       INFINITY, NULL, "X0,Y0,Z0,X1,Y1,Z1",
-      "no fog outside this box (in the fog's frame: after --fog-offset and --fog-rotate)",
+      "no fog outside this box: world axes, in the fog's own frame (it moves and turns with "
+      "--fog-offset and --fog-rotate)",
       NULL, 0 },
     { "fog-offset", 0, FP_OPT_VEC, FOG(offset), 3, 3, "0,0,0", -1e9, 1e9, NULL, "X,Y,Z",
       "move the fog (fogmap, height profile and box) in the world", NULL, 0 },
@@ -64,6 +66,11 @@ static void check_profile(const char *name, const double *h, int *rc)
         *rc = fp_usage_error("--%s: the scale height H must be > 0 (got %g)", name, h[1]);
     else if (!(h[2] > h[0]))
         *rc = fp_usage_error("--%s: TOP (%g) must be above Y0 (%g)", name, h[2], h[0]);
+}
+
+void fp_integrate_fog_offset(const fp_params_t *p, double off[3])
+{
+    fp_world_to_fog(p->camera.up, p->fog.offset, off);
 }
 
 int fp_integrate_commit(const fp_params_t *p, fp_integrate_data_t *d)
@@ -83,13 +90,19 @@ int fp_integrate_commit(const fp_params_t *p, fp_integrate_data_t *d)
     v[FP_F_Y0] = f->height[0];
     v[FP_F_H] = f->height[1];
     v[FP_F_TOP] = f->height[2];
-    for (int i = 0; i < 3; i++)
-        v[FP_F_OFF + i] = f->offset[i];
+    fp_integrate_fog_offset(p, v + FP_F_OFF);
     /* The fog turns by +angle: world -> fog-local turns by -angle. */
     v[FP_F_COS] = cos(f->rotate * M_PI / 180);
     v[FP_F_SIN] = sin(f->rotate * M_PI / 180);
-    for (int i = 0; i < 6; i++)
-        v[FP_F_BOX + i] = f->box[i];
+    /* The box is given on the world's axes: turn its corners into fog
+     * space (with --up z the axes swap and one flips). */
+    double lo[3], hi[3];
+    fp_world_to_fog(p->camera.up, f->box, lo);
+    fp_world_to_fog(p->camera.up, f->box + 3, hi);
+    for (int i = 0; i < 3; i++) {
+        v[FP_F_BOX + i] = fmin(lo[i], hi[i]);
+        v[FP_F_BOX + 3 + i] = fmax(lo[i], hi[i]);
+    }
     v[FP_F_HAZE] = f->haze;
     for (int i = 0; i < 3; i++)
         v[FP_F_HAZE + 1 + i] = f->haze_height[i];

@@ -39,6 +39,9 @@ typedef struct fp_integrate_data_t {
  * those and sets `tables`). */
 int fp_integrate_commit(const fp_params_t *p, fp_integrate_data_t *d);
 
+/* --fog-offset (world axes) in fog space. */
+void fp_integrate_fog_offset(const fp_params_t *p, double off[3]);
+
 /* Optical depth along a fog-space ray, t in [0, len] (len may be INFINITY),
  * in double precision. */
 double fp_integrate_optical_depth(const fp_integrate_data_t *d, const double o[3],

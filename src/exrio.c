@@ -956,6 +956,15 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
     f->io.msg[0] = '\0';
     read_matrix(f, "worldToCamera", &in->has_world_to_camera, in->world_to_camera);
     read_matrix(f, "worldToNDC", &in->has_world_to_ndc, in->world_to_ndc);
+    exr_attr_chromaticities_t chr;
+    if (exr_attr_get_chromaticities(f->ctx, f->main_part, "chromaticities", &chr) ==
+        EXR_ERR_SUCCESS) {
+        const float c[8] = { chr.red_x, chr.red_y, chr.green_x, chr.green_y,
+                             chr.blue_x, chr.blue_y, chr.white_x, chr.white_y };
+        memcpy(in->chromaticities, c, sizeof c);
+        in->has_chromaticities = 1;
+    }
+    f->io.msg[0] = '\0'; /* a missing attribute is not an error */
     in->compression = mp->compression;
     in->num_parts = f->num_parts;
     if (f->color_part >= 0) {
@@ -979,16 +988,23 @@ done:
     return rc;
 }
 
+int fp_exr_load_file(const char *path, long frame, void **buf, size_t *size)
+{
+    int err = 0;
+    if (slurp(path, buf, size, &err) != FP_OK)
+        return fp_error("%s: frame %ld: cannot read (%s)", path, frame,
+                        strerror(err));
+    return FP_OK;
+}
+
 int fp_exr_read_file(const char *path, long frame, const fp_exr_select_t *sel,
                      fp_frame_t **out)
 {
     void *buf = NULL;
     size_t size = 0;
-    int err = 0;
     *out = NULL;
-    if (slurp(path, &buf, &size, &err) != FP_OK)
-        return fp_error("%s: frame %ld: cannot read (%s)", path, frame,
-                        strerror(err));
+    if (fp_exr_load_file(path, frame, &buf, &size) != FP_OK)
+        return FP_ERR;
     return fp_exr_read_memory(buf, size, path, frame, sel, out);
 }
 
@@ -1294,7 +1310,7 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
                 if (p == f->color_part && c == f->color_chan[k])
                     role = ROLE_R + k;
             if (role != ROLE_PASS) {
-                if (!rgba)
+                if (!rgba || opts->drop_color)
                     continue;
                 oc.type = color_type;
                 oc.base = (const uint8_t *) (rgba + (role - ROLE_R));
@@ -1308,7 +1324,7 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
             put_chan(op, &oc);
         }
         if (p == f->main_part) {
-            if (f->color_part < 0 && rgba) {
+            if (f->color_part < 0 && rgba && !opts->drop_color) {
                 /* colour for a file that had none: R, G, B, A */
                 for (int k = 0; k < 4; ++k) {
                     out_chan_t oc = { rgba_names[k], color_type, 0, 1, 1,
@@ -1379,8 +1395,15 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
             const exr_attribute_t *a = NULL;
             rv = exr_get_attribute_by_index(f->ctx, p, EXR_ATTR_LIST_FILE_ORDER,
                                             i, &a);
-            if (rv == EXR_ERR_SUCCESS && a && !is_structural_attr(a->name))
+            if (rv == EXR_ERR_SUCCESS && a && !is_structural_attr(a->name) &&
+                !(p == f->main_part && opts->set_chromaticities &&
+                  strcmp(a->name, "chromaticities") == 0))
                 rv = copy_attr(o, idx, a);
+        }
+        if (rv == EXR_ERR_SUCCESS && p == f->main_part && opts->set_chromaticities > 0) {
+            const float *c = opts->chromaticities;
+            exr_attr_chromaticities_t chr = { c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7] };
+            rv = exr_attr_set_chromaticities(o, idx, "chromaticities", &chr);
         }
         if (rv != EXR_ERR_SUCCESS)
             goto lib_fail;
@@ -1430,18 +1453,22 @@ done:
     return rc;
 }
 
+int fp_exr_write_bytes(const char *path, long frame, const void *buf, size_t size)
+{
+    char label[64];
+    snprintf(label, sizeof label, ": frame %ld", frame);
+    return write_atomic(path, buf, size, label);
+}
+
 int fp_exr_write_file(const fp_frame_t *f, const float *rgba,
                       const fp_exr_write_opts_t *opts, const char *path,
                       long frame)
 {
     void *buf = NULL;
     size_t size = 0;
-    char label[64];
     int rc = fp_exr_encode(f, rgba, opts, path, frame, &buf, &size);
-    if (rc == FP_OK) {
-        snprintf(label, sizeof label, ": frame %ld", frame);
-        rc = write_atomic(path, buf, size, label);
-    }
+    if (rc == FP_OK)
+        rc = fp_exr_write_bytes(path, frame, buf, size);
     free(buf);
     return rc;
 }

@@ -45,6 +45,10 @@ typedef struct fp_frame_info_t {
     int has_alpha;             /* the color had an alpha channel */
     char color_names[4][256];  /* names of R,G,B,A channels found ("" if none) */
     char depth_name[256];      /* name of the depth channel ("" if none) */
+    /* The colour part's "chromaticities" attribute: red x,y, green x,y,
+     * blue x,y, white x,y (what primaries the RGB values are in). */
+    int has_chromaticities;
+    float chromaticities[8];
 } fp_frame_info_t;
 
 /* Decode an EXR image held in memory.  Takes ownership of `buf` (from
@@ -58,6 +62,10 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
 /* Read a whole file into memory and decode it (fp_exr_read_memory). */
 int fp_exr_read_file(const char *path, long frame, const fp_exr_select_t *sel,
                      fp_frame_t **out);
+/* Its first half: the file's bytes into a malloc'd buffer (message naming
+ * the file and frame on failure), for callers that time reading and
+ * decoding apart. */
+int fp_exr_load_file(const char *path, long frame, void **buf, size_t *size);
 
 /* Stream framing: read exactly one EXR file from a concatenated stream
  * (stdin) into a malloc'd buffer, using its header, offset table and chunk
@@ -93,15 +101,22 @@ typedef struct fp_exr_write_opts_t {
     const fp_exr_extra_t *extra;
     int num_extra;
     int color_only;            /* 1: drop pass-through channels (AOV-only output) */
+    int drop_color;            /* 1: drop the colour channels too (only `extra` is written) */
+    /* The colour part's "chromaticities" attribute: 0 passes the input's
+     * through, 1 writes `chromaticities` instead (the output colour space's
+     * primaries), -1 leaves it out (primaries unknown). */
+    int set_chromaticities;
+    float chromaticities[8];   /* red x,y, green x,y, blue x,y, white x,y */
 } fp_exr_write_opts_t;
-#define FP_EXR_WRITE_OPTS_INITIALIZER { 0, -1, NULL, 0, 0 }
+#define FP_EXR_WRITE_OPTS_INITIALIZER { 0, -1, NULL, 0, 0, 0, 0, { 0 } }
 
 /* Encode the frame to memory: every part, header attribute, data and
  * display window of the input kept; the color channels replaced by `rgba`
  * (width*height*4 floats; written under the input's color channel names,
  * R,G,B,A when the input had no color; A only if the input had alpha or
  * rgba is given for a color-less input); every other channel passed through
- * unchanged.  Output is scanline.  *out is malloc'd.
+ * unchanged; opts->extra channels added to the colour's part (replacing
+ * channels of the same name).  Output is scanline.  *out is malloc'd.
  * rgba NULL: the frame's own colour (fp_frame_rgba, possibly edited). */
 int fp_exr_encode(const fp_frame_t *f, const float *rgba,
                   const fp_exr_write_opts_t *opts, const char *where_file,
@@ -112,6 +127,9 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
 int fp_exr_write_file(const fp_frame_t *f, const float *rgba,
                       const fp_exr_write_opts_t *opts, const char *path,
                       long frame);
+/* Its second half: write encoded bytes atomically (messages name the
+ * frame). */
+int fp_exr_write_bytes(const char *path, long frame, const void *buf, size_t size);
 
 /* Read a whole file into a malloc'd buffer (shared helper). */
 int fp_read_whole_file(const char *path, void **buf, size_t *size);

@@ -1,5 +1,6 @@
 /* fogpipe: add physically based fog to color + depth OpenEXR frames. */
 #include "clrt.h"
+#include "color.h"
 #include "fp.h"
 #include "options.h"
 #include "pipeline.h"
@@ -26,11 +27,13 @@ int main(int argc, char **argv)
         rc = FP_OK;
     } else if (p.cmd.list_devices) {
         rc = fp_cl_list_devices(stdout);
+    } else if (p.color.list_spaces) {
+        rc = fp_color_list(&p, stdout);
     } else {
         rc = fp_pipeline_run(&p);
     }
     fp_options_free(&p);
     if (fflush(stdout) != 0 && rc == FP_OK)
         rc = fp_error("<stdout>: write failed");
-    return rc == FP_OK ? 0 : rc == FP_EUSAGE ? 2 : 1;
+    return rc == FP_OK ? 0 : rc == FP_EUSAGE ? 2 : rc > FP_ESIGNAL ? rc : 1;
 }

@@ -15,7 +15,9 @@ enum {
     FP_OK = 0,
     FP_ERR = 1,       /* runtime error: bad input file, I/O, device */
     FP_EUSAGE = 2,    /* usage error: unknown option, value out of range */
-    FP_EOF = 3        /* clean end of a stream (not an error for callers that expect it) */
+    FP_EOF = 3,       /* clean end of a stream (not an error for callers that expect it) */
+    FP_ESIGNAL = 128  /* stopped by a signal: FP_ESIGNAL + the signal number is the exit
+                         status (130 for SIGINT, 143 for SIGTERM) */
 };
 
 #define FP_ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
@@ -32,6 +34,21 @@ void fp_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 extern int fp_quiet;
 extern int fp_verbose;
+
+/* Kept messages.  While a thread has a sink (fp_msg_capture), its messages
+ * (errors, warnings, info) are appended to the sink, whole lines, instead
+ * of printed; fp_msg_flush prints them later.  The frame loop keeps each
+ * frame's messages with the frame, so they come out in frame order whichever
+ * thread read, computed or wrote it. */
+typedef struct fp_msgbuf_t {
+    char *text;
+    size_t len, cap;
+} fp_msgbuf_t;
+/* Set the calling thread's sink (NULL: print again); returns the previous. */
+fp_msgbuf_t *fp_msg_capture(fp_msgbuf_t *sink);
+/* Print the kept lines on stderr and empty the buffer. */
+void fp_msg_flush(fp_msgbuf_t *b);
+void fp_msg_free(fp_msgbuf_t *b);
 
 /* A frame's label for messages: "shot.0012.exr" or "<stdin> frame 3". */
 typedef struct fp_where_t {

@@ -14,6 +14,11 @@ extern const fp_option_t fp_io_options[];
 extern const fp_option_t fp_camera_options[];
 extern const fp_option_t fp_integrate_options[];
 extern const fp_option_t fp_fogmap_options[];
+extern const fp_option_t fp_animate_options[];
+extern const fp_option_t fp_color_options[];
+extern const fp_option_t fp_aov_options[];
+extern const fp_option_t fp_preview_options[];
+extern const fp_option_t fp_run_options[];
 
 #define CMD(f) offsetof(fp_params_t, cmd.f)
 static const fp_option_t cmd_options[] = {
@@ -39,6 +44,11 @@ const fp_option_group_t fp_option_groups[] = {
     { "Camera and depth", fp_camera_options },
     { "Fog", fp_integrate_options },
     { "Fogmap (wavelet fog)", fp_fogmap_options },
+    { "Animation", fp_animate_options },
+    { "Color (OpenColorIO)", fp_color_options },
+    { "Fog layers (AOVs)", fp_aov_options },
+    { "Previews", fp_preview_options },
+    { "Sequences and farms", fp_run_options },
     { NULL, NULL }
 };
 
@@ -472,7 +482,7 @@ void fp_options_print_help(FILE *out, int markdown)
     }
     if (!markdown)
         fprintf(out, "\nEnvironment: FOGPIPE_DEVICE (as --device), FOGPIPE_CACHE_DIR "
-                     "(OpenCL program cache; 'off' disables).\n%s %s\n",
+                     "(OpenCL program cache; 'off' disables), OCIO (as --ocio).\n%s %s\n",
                 PACKAGE_NAME, PACKAGE_VERSION);
 }
 

@@ -70,6 +70,50 @@ typedef struct fp_fogmap_params_t {
     char *preview;        /* directory for --fogmap-preview */
 } fp_fogmap_params_t;
 
+enum { FP_INTERP_HOLD = 0, FP_INTERP_LINEAR, FP_INTERP_SMOOTH };
+enum { FP_ADVECT_OFF = 0, FP_ADVECT_SL, FP_ADVECT_MACCORMACK };
+
+/* Animation (filters/animate.c): time t = frame / fps. */
+typedef struct fp_animate_params_t {
+    double fps;
+    double wind[3];       /* horizontal wind (scene units/s) and turning rate (deg/s) */
+    int interp;           /* FP_INTERP_*: between the keys of a fogmap sequence */
+    double turbulence;    /* amount, times the fogmap's mean */
+    double turbulence_speed;
+    int seed;
+    int advect;           /* FP_ADVECT_* */
+    int advect_start;     /* frame at which the advected fogmap is the fogmap */
+    char *cache_dir;      /* advection states */
+} fp_animate_params_t;
+
+typedef struct fp_color_params_t {  /* filters/color.c */
+    char *ocio;           /* OpenColorIO config file */
+    char *input_space;    /* colour space names, aliases or roles; NULL: default */
+    char *working_space;
+    char *output_space;
+    char *display;        /* for previews; NULL: the config's default */
+    char *view;
+    int list_spaces;      /* command: describe the config and exit */
+} fp_color_params_t;
+
+typedef struct fp_aov_params_t {    /* filters/aov.c */
+    int aov;              /* also write fog.RGBA and transmittance.RGB */
+    int aov_only;         /* write only those */
+} fp_aov_params_t;
+
+typedef struct fp_preview_params_t {  /* filters/preview.c */
+    char *preview;        /* PNG/JPEG/TIFF pattern, one per frame */
+    char *contact_sheet;  /* one image tiling the run's previews */
+    int columns;          /* of the contact sheet; 0: about square */
+} fp_preview_params_t;
+
+typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
+    int pipeline;         /* 1: read, compute and write on three threads */
+    int skip_existing;    /* leave frames whose output exists alone */
+    char *stats;          /* per-frame timings as JSON */
+    int no_fog;           /* benchmark: read and write only (the I/O floor) */
+} fp_run_params_t;
+
 typedef struct fp_cmd_params_t {
     int help;
     int help_markdown;
@@ -83,6 +127,11 @@ typedef struct fp_params_t {
     fp_camera_params_t camera;
     fp_fog_params_t fog;
     fp_fogmap_params_t fogmap;
+    fp_animate_params_t anim;
+    fp_color_params_t color;
+    fp_aov_params_t aov;
+    fp_preview_params_t preview;
+    fp_run_params_t run;
     fp_cmd_params_t cmd;
     /* Names of the options the user gave (CLI or preset), for "was this
      * set?" questions such as camera overrides. */

@@ -1,16 +1,21 @@
 #include "pipeline.h"
+#include "aov.h"
 #include "camera.h"
 #include "clrt.h"
+#include "color.h"
 #include "composite.h"
+#include "preview.h"
 #include "exrio.h"
 #include "fogmap.h"
 #include "fp.h"
+#include "frameloop.h"
 #include "integrate.h"
 #include "options.h"
 #include "seq.h"
 
 #include <errno.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -54,6 +59,23 @@ const fp_option_t fp_io_options[] = {
     FP_OPT_END
 };
 
+#define RUN(f) offsetof(fp_params_t, run.f)
+const fp_option_t fp_run_options[] = {
+    { "skip-existing", 0, FP_OPT_FLAG, RUN(skip_existing), 0, 0, NULL, 0, 1, NULL, NULL,
+      "leave frames whose output file exists alone (not even read): resumes an interrupted "
+      "run", NULL, 0 },
+    { "stats", 0, FP_OPT_STRING, RUN(stats), 0, 0, NULL, 0, 0, NULL, "FILE",
+      "write per-frame timings (read, decode, fog, composite, encode, write) and totals as "
+      "JSON to FILE at the end", NULL, 0 },
+    { "pipeline", 0, FP_OPT_ENUM, RUN(pipeline), 0, 0, "on", 0, 0, "off|on", "off|on",
+      "decode the next frame and encode the previous one on their own threads while the "
+      "device computes (off: one frame at a time, for debugging)", NULL, 0 },
+    { "no-fog", 0, FP_OPT_FLAG, RUN(no_fog), 0, 0, NULL, 0, 1, NULL, NULL,
+      "benchmark: skip the fog, only read, decode, encode and write (the I/O floor)", NULL,
+      FP_OPTF_HIDDEN },
+    FP_OPT_END
+};
+
 typedef struct run_t {
     fp_params_t *p;
     fp_exr_select_t sel;
@@ -63,31 +85,120 @@ typedef struct run_t {
     fp_integrate_cl_t icl;
     fp_fogmap_stage_t fogmap;
     int use_cl;
+    /* The frame loop (src/frameloop.h).  The reader and writer threads only
+     * read run_t (p, sel, wopts and what follows); fog, cl, icl and fogmap
+     * belong to the calling thread, which runs process_frame. */
+    const fp_frame_list_t *frames;   /* file input: the frames of the run */
+    const unsigned char *skip;       /* file input: frame k's output exists (--skip-existing) */
+    const fp_frame_list_t *labels;   /* stream input: numbers from --frames, or NULL */
+    int out_seq;                     /* stream input: written to a sequence pattern */
+    FILE *out_stream;                /* stdout, or NULL for files */
+    double setup_ms;                 /* device, programs, fogmap: for --stats */
+    double fogmap_setup_ms;
+    pthread_mutex_t pool_mu;         /* fog layers handed back by the writer, reused */
+    float *pool[3];
+    size_t pool_px[3];
+    fp_color_t color;                /* OpenColorIO spaces and processors (thread-safe) */
+    fp_preview_t preview;            /* previews written, for the contact sheet (locked) */
 } run_t;
+
+/* One frame between the stages: read_frame (reader thread), process_frame
+ * (calling thread), write_frame (writer thread).  What a stage hands on to
+ * a later one lives here, never in run_t: frames in flight are at different
+ * stages at once. */
+typedef struct frame_state_t {
+    fp_frame_t *f;
+    float *fog;                  /* S.rgb, tau per pixel, fog_px pixels */
+    size_t fog_px;
+    fp_exr_write_opts_t wopts;   /* this frame's write options (per-frame data points into
+                                    this frame, which lives until it is written) */
+    fp_color_frame_t color;      /* this frame's color spaces (filters/color.h) */
+    fp_aov_frame_t aov;          /* fog layers written with it (filters/aov.h) */
+} frame_state_t;
+
+/* A fog layer of n pixels: one handed back by an earlier frame if any. */
+static float *fog_get(run_t *r, size_t n)
+{
+    float *buf = NULL;
+    pthread_mutex_lock(&r->pool_mu);
+    for (size_t i = 0; i < FP_ARRAY_LEN(r->pool); i++)
+        if (r->pool[i] && r->pool_px[i] == n) {
+            buf = r->pool[i];
+            r->pool[i] = NULL;
+            break;
+        }
+    pthread_mutex_unlock(&r->pool_mu);
+    return buf ? buf : malloc(n * 4 * sizeof(float));
+}
+
+static void fog_put(run_t *r, float *buf, size_t n)
+{
+    if (!buf)
+        return;
+    pthread_mutex_lock(&r->pool_mu);
+    for (size_t i = 0; buf && i < FP_ARRAY_LEN(r->pool); i++)
+        if (!r->pool[i]) {
+            r->pool[i] = buf;
+            r->pool_px[i] = n;
+            buf = NULL;
+        }
+    pthread_mutex_unlock(&r->pool_mu);
+    free(buf);
+}
 
 static int is_stream(const char *s) { return !s || strcmp(s, "-") == 0; }
 
-/* Fog one decoded frame and emit it. */
-static int process_frame(run_t *r, fp_frame_t *f, const char *in_name, long frame,
-                         const char *out_name, FILE *out_stream)
+/* Stage 1, reader thread: decode a frame's bytes (taking `buf`) and its
+ * depth from --depth.  job->in and job->frame are set. */
+static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
 {
     fp_params_t *p = r->p;
-    int rc = FP_OK;
-    float *fog = NULL;
-    void *bytes = NULL;
-    size_t nbytes = 0;
-    fp_frame_t *df = NULL;
-
-    if (p->io.depth) {
+    const char *in_name = job->in;
+    long frame = job->frame;
+    frame_state_t *fs = calloc(1, sizeof *fs);
+    if (!fs) {
+        free(buf);
+        return fp_error("%s: frame %ld: out of memory", in_name, frame);
+    }
+    job->data = fs;
+    fs->wopts = r->wopts;
+    double t0 = fp_now_ms(), t_depth_read = 0;
+    int rc = fp_exr_read_memory(buf, size, in_name, frame, &r->sel, &fs->f);
+    if (rc == FP_OK && p->io.depth) {
         char dpath[4096];
         fp_exr_select_t dsel = r->sel;
         dsel.need_color = 0;
         dsel.color_layer = NULL;
-        if ((rc = fp_seq_format(p->io.depth, frame, dpath, sizeof dpath)) ||
-            (rc = fp_exr_read_file(dpath, frame, &dsel, &df)) ||
-            (rc = fp_frame_take_depth(f, in_name, df, dpath, frame)))
-            goto done;
+        void *dbuf = NULL;
+        size_t dsize = 0;
+        fp_frame_t *df = NULL;
+        double t1 = fp_now_ms();
+        if ((rc = fp_seq_format(p->io.depth, frame, dpath, sizeof dpath)) == FP_OK &&
+            (rc = fp_exr_load_file(dpath, frame, &dbuf, &dsize)) == FP_OK) {
+            t_depth_read = fp_now_ms() - t1;
+            if ((rc = fp_exr_read_memory(dbuf, dsize, dpath, frame, &dsel, &df)) == FP_OK)
+                rc = fp_frame_take_depth(fs->f, in_name, df, dpath, frame);
+        }
+        if (df)
+            fp_frame_free(df);
     }
+    job->ms[FP_T_READ] += t_depth_read;
+    job->ms[FP_T_DECODE] = fp_now_ms() - t0 - t_depth_read;
+    return rc;
+}
+
+/* Stage 2, calling thread (it owns the device): fog one decoded frame and
+ * composite it in place. */
+static int process_frame(run_t *r, fp_loop_job_t *job)
+{
+    fp_params_t *p = r->p;
+    frame_state_t *fs = job->data;
+    fp_frame_t *f = fs->f;
+    const char *in_name = job->in;
+    long frame = job->frame;
+    int rc = FP_OK;
+    double t0 = fp_now_ms();
+
     const fp_frame_info_t *info = fp_frame_info(f);
     fp_camera_t cam;
     if ((rc = fp_camera_resolve(p, info, in_name, frame, &cam)))
@@ -99,15 +210,22 @@ static int process_frame(run_t *r, fp_frame_t *f, const char *in_name, long fram
     fp_view_t view;
     if ((rc = fp_view_setup(&cam, p, info, &view)))
         goto done;
-    fp_fogmap_frame(p, &view, &r->fog);
+    double t_fogmap = fp_now_ms();
+    /* The fog at this frame's time (wind, animated fogmap; its errors name
+     * the fogmap's file and the frame). */
+    if ((rc = fp_fogmap_frame(p, r->cl, &r->fogmap, frame, &view, &r->fog)))
+        goto done;
+    job->ms[FP_T_FOGMAP] = fp_now_ms() - t_fogmap;
+    job->decompose_ms = r->fogmap.decompose_ms;
     size_t n = (size_t)info->width * info->height;
     const float *depth = fp_frame_depth(f);
     float *rgba = fp_frame_rgba(f);
-    fog = malloc(n * 4 * sizeof(float));
+    float *fog = fs->fog = fog_get(r, n);
     if (!fog) {
         rc = fp_error("%s: frame %ld: out of memory", in_name, frame);
         goto done;
     }
+    fs->fog_px = n;
     long suspicious = 0;
     if (r->use_cl) {
         for (size_t i = 0; i < n; i++)
@@ -123,24 +241,98 @@ static int process_frame(run_t *r, fp_frame_t *f, const char *in_name, long fram
     if (suspicious)
         fp_warn("%s: frame %ld: %ld pixels with NaN or negative depth treated as sky",
                 in_name, frame, suspicious);
+    double t_composite = fp_now_ms();
+    job->ms[FP_T_FOG] = t_composite - t0 - job->ms[FP_T_FOGMAP];
+    /* Plate input -> working space, composite and fog layers there, then
+     * -> output space (filters/color.h; nothing happens by default). */
+    if ((rc = fp_color_frame(&r->color, info, in_name, frame, &fs->color)))
+        goto done;
+    fp_color_to_working(&fs->color, rgba, n);
     fp_composite_process(rgba, fog, n, rgba);
-    if (out_stream) {
-        if ((rc = fp_exr_encode(f, rgba, &r->wopts, out_name, frame, &bytes, &nbytes)))
-            goto done;
+    if ((rc = fp_aov_make(p, &fs->color, fog, n, in_name, frame, &fs->aov)))
+        goto done;
+    fp_color_to_output(&fs->color, rgba, n);
+    fp_color_write_opts(&fs->color, &fs->wopts);
+    fp_aov_write_opts(p, &fs->aov, &fs->wopts);
+    job->ms[FP_T_COMPOSITE] = fp_now_ms() - t_composite;
+done:
+    return rc;
+}
+
+/* Stage 3, writer thread (frames arrive in order): encode the frame and
+ * write it, atomically to its file or whole to stdout. */
+static int write_frame(run_t *r, fp_loop_job_t *job)
+{
+    fp_params_t *p = r->p;
+    frame_state_t *fs = job->data;
+    fp_frame_t *f = fs->f;
+    const char *out_name = job->out;
+    long frame = job->frame;
+    void *bytes = NULL;
+    size_t nbytes = 0;
+    int rc = FP_OK;
+
+    if (p->cmd.print_camera)
+        return FP_OK;
+    double t0 = fp_now_ms();
+    if ((rc = fp_exr_encode(f, fp_frame_rgba(f), &fs->wopts, out_name, frame, &bytes, &nbytes)))
+        goto done;
+    double t1 = fp_now_ms();
+    job->ms[FP_T_ENCODE] = t1 - t0;
+    /* The preview before the frame: an output frame on disk means a whole
+     * frame (--skip-existing). */
+    fp_loop_commit_begin();
+    rc = fp_preview_frame(&r->preview, &fs->color, fp_frame_rgba(f), fp_frame_info(f)->width,
+                          fp_frame_info(f)->height, frame);
+    fp_loop_commit_end(NULL);
+    if (rc)
+        goto done;
+    fp_loop_commit_begin();
+    if (r->out_stream) {
         /* The frame is encoded whole before the first byte goes out. */
-        if (fwrite(bytes, 1, nbytes, out_stream) != nbytes || fflush(out_stream)) {
+        if (fwrite(bytes, 1, nbytes, r->out_stream) != nbytes || fflush(r->out_stream))
             rc = fp_error("<stdout>: frame %ld: write failed (%s)", frame, strerror(errno));
-            goto done;
-        }
     } else {
-        rc = fp_exr_write_file(f, rgba, &r->wopts, out_name, frame);
+        rc = fp_exr_write_bytes(out_name, frame, bytes, nbytes);
     }
+    fp_loop_commit_end(rc == FP_OK ? job : NULL);
+    job->ms[FP_T_WRITE] = fp_now_ms() - t1;
 done:
     free(bytes);
-    free(fog);
-    if (df)
-        fp_frame_free(df);
     return rc;
+}
+
+/* The stages as the frame loop calls them. */
+static int stage_process(void *ctx, fp_loop_job_t *job)
+{
+    run_t *r = ctx;
+    /* --no-fog: the frame goes out as it came in (benchmark of the I/O). */
+    return r->p->run.no_fog ? FP_OK : process_frame(r, job);
+}
+
+static int stage_write(void *ctx, fp_loop_job_t *job)
+{
+    return write_frame(ctx, job);
+}
+
+static void stage_release(void *ctx, fp_loop_job_t *job)
+{
+    run_t *r = ctx;
+    frame_state_t *fs = job->data;
+    if (!fs)
+        return;
+    if (fs->f)
+        fp_frame_free(fs->f);
+    fog_put(r, fs->fog, fs->fog_px);
+    fp_aov_free(&fs->aov);
+    free(fs);
+    job->data = NULL;
+}
+
+static int output_exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
 }
 
 static int setup(run_t *r)
@@ -173,7 +365,7 @@ static int setup(run_t *r)
 static int open_device(run_t *r)
 {
     fp_params_t *p = r->p;
-    if (p->cmd.print_camera)
+    if (p->cmd.print_camera || p->run.no_fog)
         return FP_OK;
     if (r->use_cl) {
         if (fp_cl_open(p->io.device, &r->cl))
@@ -186,6 +378,94 @@ static int open_device(run_t *r)
     return fp_fogmap_commit(p, r->cl, &r->fogmap, &r->fog, &active);
 }
 
+/* Stage 1 for file input: frame job->seq of the list (reader thread). */
+static int next_file(void *ctx, fp_loop_job_t *job)
+{
+    run_t *r = ctx;
+    fp_params_t *p = r->p;
+    if (job->seq >= (long)r->frames->count)
+        return FP_EOF;
+    long frame = job->frame = r->frames->frames[job->seq];
+    int rc;
+    if ((rc = fp_seq_format(p->io.input, frame, job->in, sizeof job->in)))
+        return rc;
+    if (r->out_stream)
+        snprintf(job->out, sizeof job->out, "<stdout>");
+    else if ((rc = fp_seq_format(p->io.output, frame, job->out, sizeof job->out)))
+        return rc;
+    if (r->skip && r->skip[job->seq]) {
+        job->skipped = 1;
+        fp_info("%s: frame %ld: output exists, skipped (--skip-existing)", job->out, frame);
+        return FP_OK;
+    }
+    struct stat si, so;
+    if (!r->out_stream && stat(job->in, &si) == 0 && stat(job->out, &so) == 0 &&
+        si.st_dev == so.st_dev && si.st_ino == so.st_ino)
+        return fp_usage_error("%s: frame %ld: output would overwrite the input", job->in, frame);
+    void *buf = NULL;
+    size_t size = 0;
+    double t0 = fp_now_ms();
+    rc = fp_exr_load_file(job->in, frame, &buf, &size);
+    job->ms[FP_T_READ] = fp_now_ms() - t0;
+    return rc ? rc : read_frame(r, job, buf, size);
+}
+
+/* Stage 1 for stream input: the next frame on stdin (reader thread). */
+static int next_stream(void *ctx, fp_loop_job_t *job)
+{
+    run_t *r = ctx;
+    fp_params_t *p = r->p;
+    const fp_frame_list_t *labels = r->labels;
+    long idx = job->seq;
+    void *buf = NULL;
+    size_t size = 0;
+    job->frame = labels ? (idx < (long)labels->count ? labels->frames[idx] : -1) : idx + 1;
+    snprintf(job->in, sizeof job->in, "<stdin>");
+    double t0 = fp_now_ms();
+    fp_loop_blocking_begin();
+    int rc = fp_exr_stream_next(stdin, "<stdin>", idx + 1, &buf, &size);
+    fp_loop_blocking_end();
+    job->ms[FP_T_READ] = fp_now_ms() - t0;
+    if (rc == FP_EOF)
+        return idx == 0 ? fp_error("<stdin>: empty input (expected an EXR stream)") : FP_EOF;
+    if (rc)
+        return rc;
+    if (labels && idx >= (long)labels->count) {
+        free(buf);
+        return fp_usage_error("<stdin>: frame %ld: more frames on stdin than --frames lists (%zu)",
+                              idx + 1, labels->count);
+    }
+    if (!r->out_seq) {
+        snprintf(job->out, sizeof job->out, "<stdout>");
+    } else if ((rc = fp_seq_format(p->io.output, job->frame, job->out, sizeof job->out))) {
+        free(buf);
+        return rc;
+    } else if (p->run.skip_existing && output_exists(job->out)) {
+        /* Read off the stream all the same, to get to the next frame. */
+        free(buf);
+        job->skipped = 1;
+        fp_info("%s: frame %ld: output exists, skipped (--skip-existing)", job->out, job->frame);
+        return FP_OK;
+    }
+    return read_frame(r, job, buf, size);
+}
+
+static int run_loop(run_t *r, int (*next)(void *, fp_loop_job_t *), long total)
+{
+    fp_params_t *p = r->p;
+    fp_loop_ops_t ops = { r, next, stage_process, stage_write, stage_release };
+    fp_loop_opts_t o = { 0 };
+    o.pipelined = p->run.pipeline;
+    o.progress = !p->io.quiet && !p->cmd.print_camera && isatty(STDERR_FILENO);
+    o.total = total;
+    o.stats_path = p->run.stats;
+    o.input = p->io.input;
+    o.output = p->io.output;
+    o.setup_ms = r->setup_ms;
+    o.fogmap_setup_ms = r->fogmap_setup_ms;
+    return fp_loop_run(&ops, &o);
+}
+
 static int run_stream_input(run_t *r, const fp_frame_list_t *labels)
 {
     fp_params_t *p = r->p;
@@ -196,40 +476,10 @@ static int run_stream_input(run_t *r, const fp_frame_list_t *labels)
     if (isatty(STDIN_FILENO))
         return fp_usage_error("no input: give -i FILE|PATTERN, or pipe EXR frames on stdin "
                               "(see fogpipe --help)");
-    int rc = FP_OK;
-    for (long idx = 0;; idx++) {
-        void *buf = NULL;
-        size_t size = 0;
-        long frame = labels ? (idx < (long)labels->count ? labels->frames[idx] : -1) : idx + 1;
-        rc = fp_exr_stream_next(stdin, "<stdin>", idx + 1, &buf, &size);
-        if (rc == FP_EOF) {
-            rc = idx == 0 ? fp_error("<stdin>: empty input (expected an EXR stream)") : FP_OK;
-            break;
-        }
-        if (rc)
-            break;
-        if (labels && idx >= (long)labels->count) {
-            free(buf);
-            rc = fp_usage_error("<stdin>: frame %ld: more frames on stdin than --frames lists (%zu)",
-                                idx + 1, labels->count);
-            break;
-        }
-        fp_frame_t *f = NULL;
-        char label[64];
-        snprintf(label, sizeof label, "<stdin>");
-        if ((rc = fp_exr_read_memory(buf, size, label, frame, &r->sel, &f)))
-            break;
-        char opath[4096] = "";
-        if (out_seq)
-            rc = fp_seq_format(p->io.output, frame, opath, sizeof opath);
-        if (rc == FP_OK)
-            rc = process_frame(r, f, label, frame, out_seq ? opath : "<stdout>",
-                               out_seq ? NULL : stdout);
-        fp_frame_free(f);
-        if (rc)
-            break;
-    }
-    return rc;
+    r->labels = labels;
+    r->out_seq = out_seq;
+    r->out_stream = out_seq ? NULL : stdout;
+    return run_loop(r, next_stream, labels ? (long)labels->count : 0);
 }
 
 static int run_files(run_t *r)
@@ -242,6 +492,7 @@ static int run_files(run_t *r)
                               "# or @)", in_seq < 0 ? p->io.input : p->io.output);
     int out_seq = !out_stream && fp_seq_has_placeholder(p->io.output) == 1;
     fp_frame_list_t frames = { NULL, 0 };
+    unsigned char *skip = NULL;
     int rc = FP_OK;
     if (in_seq) {
         if (!out_stream && !out_seq && !p->cmd.print_camera)
@@ -265,10 +516,26 @@ static int run_files(run_t *r)
     }
     if (rc)
         goto done;
+    /* --skip-existing: a frame whose output is there is not even read. */
+    if (p->run.skip_existing && !out_stream && !p->cmd.print_camera) {
+        skip = calloc(frames.count ? frames.count : 1, 1);
+        if (!skip) {
+            rc = fp_error("out of memory");
+            goto done;
+        }
+        for (size_t k = 0; k < frames.count; k++) {
+            char path[4096];
+            if ((rc = fp_seq_format(p->io.output, frames.frames[k], path, sizeof path)))
+                goto done;
+            skip[k] = (unsigned char)output_exists(path);
+        }
+    }
     /* Every input must be there before anything is written. */
     for (size_t k = 0; k < frames.count; k++) {
         char path[4096];
         struct stat st;
+        if (skip && skip[k])
+            continue;
         if ((rc = fp_seq_format(p->io.input, frames.frames[k], path, sizeof path)))
             goto done;
         if (stat(path, &st) != 0) {
@@ -282,28 +549,14 @@ static int run_files(run_t *r)
                             "redirect stdout)");
         goto done;
     }
-    for (size_t k = 0; k < frames.count && rc == FP_OK; k++) {
-        long frame = frames.frames[k];
-        char in[4096], out[4096] = "";
-        fp_frame_t *f = NULL;
-        if ((rc = fp_seq_format(p->io.input, frame, in, sizeof in)))
-            break;
-        if (!out_stream && (rc = fp_seq_format(p->io.output, frame, out, sizeof out)))
-            break;
-        struct stat si, so;
-        if (!out_stream && stat(in, &si) == 0 && stat(out, &so) == 0 &&
-            si.st_dev == so.st_dev && si.st_ino == so.st_ino) {
-            rc = fp_usage_error("%s: frame %ld: output would overwrite the input", in, frame);
-            break;
-        }
-        if ((rc = fp_exr_read_file(in, frame, &r->sel, &f)))
-            break;
-        rc = process_frame(r, f, in, frame, out_stream ? "<stdout>" : out,
-                           out_stream ? stdout : NULL);
-        fp_frame_free(f);
-        fp_info("%s: frame %ld done", in, frame);
-    }
+    r->frames = &frames;
+    r->skip = skip;
+    r->out_stream = out_stream ? stdout : NULL;
+    rc = run_loop(r, next_file, (long)frames.count);
+    r->frames = NULL;
+    r->skip = NULL;
 done:
+    free(skip);
     fp_frames_free(&frames);
     return rc;
 }
@@ -324,8 +577,25 @@ int fp_pipeline_run(fp_params_t *p)
         fp_fogmap_release(&r.fogmap);
         return rc;
     }
+    if (rc == FP_OK && p->run.skip_existing && is_stream(p->io.output) && !p->cmd.print_camera)
+        return fp_usage_error("--skip-existing needs output files (-o FILE|PATTERN), not a "
+                              "stream on stdout");
+    /* Before the libraries start threads (OpenColorIO, the OpenCL driver):
+     * they inherit the blocked signals (src/frameloop.h). */
+    if (rc == FP_OK)
+        rc = fp_loop_signals_start();
+    /* Color spaces, display, view and preview names: checked before any
+     * frame is read (filters/color.h, filters/preview.h). */
+    if (rc == FP_OK)
+        rc = fp_color_commit(p, &r.color);
+    if (rc == FP_OK)
+        rc = fp_preview_commit(p, &r.preview);
+    pthread_mutex_init(&r.pool_mu, NULL);
+    double t_setup = fp_now_ms();
     if (rc == FP_OK)
         rc = open_device(&r);
+    r.setup_ms = fp_now_ms() - t_setup;
+    r.fogmap_setup_ms = r.fogmap.decompose_ms;
     if (rc == FP_OK) {
         if (is_stream(p->io.input)) {
             fp_frame_list_t labels = { NULL, 0 };
@@ -338,10 +608,18 @@ int fp_pipeline_run(fp_params_t *p)
             rc = run_files(&r);
         }
     }
+    if (rc == FP_OK && !p->cmd.print_camera)
+        rc = fp_preview_finish(&r.preview);
+    fp_preview_release(&r.preview);
+    fp_color_release(&r.color);
     fp_fogmap_release(&r.fogmap);
     if (r.cl) {
         fp_integrate_cl_release(&r.icl);
         fp_cl_close(r.cl);
     }
+    for (size_t i = 0; i < FP_ARRAY_LEN(r.pool); i++)
+        free(r.pool[i]);
+    pthread_mutex_destroy(&r.pool_mu);
+    fp_loop_signals_stop();
     return rc;
 }

@@ -64,7 +64,7 @@ static float *make_fogmap(int size)
 static double run(bench_t *b, fp_fogmap_stage_t *st, fp_integrate_data_t *d, int reps)
 {
     double best = INFINITY;
-    fp_fogmap_frame(&b->p, &b->view, d);
+    fp_fogmap_frame(&b->p, b->cl, st, 1, &b->view, d);
     fp_integrate_process_cl(&b->icl, d, &b->view, b->depth, b->got);   /* upload, warm-up */
     for (int r = 0; r < reps; r++) {
         double t0 = now_ms();

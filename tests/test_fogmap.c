@@ -270,6 +270,26 @@ static void test_moved_fog_in_a_box(void **state)
     }
 }
 
+/* --fog-offset and --fog-box are on the world's axes: with --up z they
+ * land in fog space (x, z, -y). */
+static void test_offset_and_box_world_axes(void **state)
+{
+    (void)state;
+    fp_params_t p;
+    fp_integrate_data_t d;
+    fp_options_defaults(&p);
+    assert_int_equal(fp_options_apply(&p, "up", "z", "test"), FP_OK);
+    assert_int_equal(fp_options_apply(&p, "fog-offset", "1,2,3", "test"), FP_OK);
+    assert_int_equal(fp_options_apply(&p, "fog-box", "-1,-2,-3,4,5,6", "test"), FP_OK);
+    assert_int_equal(fp_integrate_commit(&p, &d), FP_OK);
+    const double off[3] = { 1, 3, -2 }, box[6] = { -1, -3, -5, 4, 6, 2 };
+    for (int i = 0; i < 3; i++)
+        assert_double_equal(d.fp[FP_F_OFF + i], off[i], 0);
+    for (int i = 0; i < 6; i++)
+        assert_double_equal(d.fp[FP_F_BOX + i], box[i], 0);
+    fp_options_free(&p);
+}
+
 static void test_constant_is_homogeneous(void **state)
 {
     (void)state;
@@ -425,6 +445,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_exact_vs_brute_force),
         cmocka_unit_test(test_moved_fog_in_a_box),
+        cmocka_unit_test(test_offset_and_box_world_axes),
         cmocka_unit_test(test_constant_is_homogeneous),
         cmocka_unit_test(test_sparse_exact),
         cmocka_unit_test(test_opencl_parity),
