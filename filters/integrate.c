@@ -244,8 +244,8 @@ static int upload_tables(fp_integrate_cl_t *s, const fp_fog_tables_t *t)
     return FP_OK;
 }
 
-int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
-                            const fp_view_t *v, const float *depth, float *fog)
+int fp_integrate_cl_prepare(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                            const fp_view_t *v, const float *depth)
 {
     size_t n = (size_t)v->width * v->height;
     if (ensure_capacity(s, n) || upload_tables(s, d->tables))
@@ -255,16 +255,28 @@ int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
     fp_view_pack(v, view);
     for (int i = 0; i < FP_F_COUNT; i++)
         params[i] = (float)d->fp[i];
+    /* Blocking: view and params live on this function's stack. */
+    if (fp_cl_check(clEnqueueWriteBuffer(q, s->view, CL_TRUE, 0, sizeof view, view, 0, NULL, NULL),
+                    "integrate: upload view") ||
+        fp_cl_check(clEnqueueWriteBuffer(q, s->params, CL_TRUE, 0, sizeof params, params, 0, NULL,
+                                         NULL), "integrate: upload parameters"))
+        return FP_ERR;
+    /* The caller's depth outlives the blocking read that ends the frame. */
+    return depth ? fp_cl_check(clEnqueueWriteBuffer(q, s->depth, CL_FALSE, 0, n * sizeof(float),
+                                                    depth, 0, NULL, NULL), "integrate: upload depth")
+                 : FP_OK;
+}
+
+int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                            const fp_view_t *v, const float *depth, float *fog)
+{
+    size_t n = (size_t)v->width * v->height;
+    if (fp_integrate_cl_prepare(s, d, v, depth))
+        return FP_ERR;
+    cl_command_queue q = fp_cl_queue(s->cl);
     cl_float4 color = { { (float)d->fog_color[0], (float)d->fog_color[1],
                           (float)d->fog_color[2], 0 } };
     cl_int w = v->width, h = v->height;
-    if (fp_cl_check(clEnqueueWriteBuffer(q, s->view, CL_FALSE, 0, sizeof view, view, 0, NULL, NULL),
-                    "integrate: upload view") ||
-        fp_cl_check(clEnqueueWriteBuffer(q, s->params, CL_FALSE, 0, sizeof params, params, 0, NULL,
-                                         NULL), "integrate: upload parameters") ||
-        fp_cl_check(clEnqueueWriteBuffer(q, s->depth, CL_FALSE, 0, n * sizeof(float), depth, 0,
-                                         NULL, NULL), "integrate: upload depth"))
-        return FP_ERR;
     cl_kernel k = s->kernel;
     if (FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->fog) || FP_CL_ARG(k, 2, s->view) ||
         FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) || FP_CL_ARG(k, 5, s->params) ||

@@ -65,6 +65,10 @@ typedef struct fp_integrate_cl_t {
 } fp_integrate_cl_t;
 
 int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s);
+/* Buffers sized for the view, fogmap tables, view, parameters and (if not
+ * NULL) depth on the device: what every per-pixel fog kernel reads. */
+int fp_integrate_cl_prepare(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                            const fp_view_t *v, const float *depth);
 int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth, float *fog);
 void fp_integrate_cl_release(fp_integrate_cl_t *s);

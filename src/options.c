@@ -14,6 +14,7 @@ extern const fp_option_t fp_io_options[];
 extern const fp_option_t fp_camera_options[];
 extern const fp_option_t fp_integrate_options[];
 extern const fp_option_t fp_fogmap_options[];
+extern const fp_option_t fp_scatter_options[];
 extern const fp_option_t fp_animate_options[];
 extern const fp_option_t fp_color_options[];
 extern const fp_option_t fp_aov_options[];
@@ -44,6 +45,7 @@ const fp_option_group_t fp_option_groups[] = {
     { "Camera and depth", fp_camera_options },
     { "Fog", fp_integrate_options },
     { "Fogmap (wavelet fog)", fp_fogmap_options },
+    { "Light (sun, local lights, shadows)", fp_scatter_options },
     { "Animation", fp_animate_options },
     { "Color (OpenColorIO)", fp_color_options },
     { "Fog layers (AOVs)", fp_aov_options },

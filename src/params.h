@@ -86,6 +86,40 @@ typedef struct fp_animate_params_t {
     char *cache_dir;      /* advection states */
 } fp_animate_params_t;
 
+#define FP_MAX_LIGHTS 8
+enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN };
+enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP };
+
+/* One --light: kind (0 point, 1 spot), position, color, intensity (W/sr),
+ * spot axis, inner and outer cone half-angles (degrees). */
+typedef struct fp_light_t {
+    int kind;
+    double pos[3], color[3], intensity, axis[3], inner, outer;
+} fp_light_t;
+
+/* Light in the fog (filters/scatter.c). */
+typedef struct fp_light_params_t {
+    double sun[3];        /* direction toward the sun (world axes); unset: no sun */
+    double sun_color[3];
+    double sun_intensity; /* irradiance on a surface facing the sun (Blender's Strength) */
+    double albedo;        /* sigma_s / sigma_t */
+    char *phase;          /* as given; parsed into the three below */
+    int phase_kind;       /* FP_PHASE_* (kernels/phase.h) */
+    double phase_g, phase_w;
+    char *light;          /* the last --light as given; every one parsed into lights[] */
+    fp_light_t lights[FP_MAX_LIGHTS];
+    int num_lights;
+    char *shadow_map;     /* pattern of the sun's depth maps */
+    int shadows;          /* FP_SHADOWS_* */
+    double shadow_bias;   /* scene units; 0: 1.5 texels */
+    int shadow_filter;    /* PCF radius, texels */
+    double screen_shadow[3]; /* steps, distance, thickness */
+    int self_shadow;      /* FP_SELF_SHADOW_* */
+    double self_shadow_grid[3];
+    int scatter_steps;
+    int light_panels;
+} fp_light_params_t;
+
 typedef struct fp_color_params_t {  /* filters/color.c */
     char *ocio;           /* OpenColorIO config file */
     char *input_space;    /* colour space names, aliases or roles; NULL: default */
@@ -106,6 +140,12 @@ typedef struct fp_preview_params_t {  /* filters/preview.c */
     char *contact_sheet;  /* one image tiling the run's previews */
     int columns;          /* of the contact sheet; 0: about square */
 } fp_preview_params_t;
+
+/* Monte Carlo reference (filters/reference.c; seed from --seed). */
+typedef struct fp_reference_params_t {
+    int spp;              /* samples per pixel */
+    int bounces;          /* scattering events after the first (0: single scattering) */
+} fp_reference_params_t;
 
 typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     int pipeline;         /* 1: read, compute and write on three threads */
@@ -128,10 +168,12 @@ typedef struct fp_params_t {
     fp_fog_params_t fog;
     fp_fogmap_params_t fogmap;
     fp_animate_params_t anim;
+    fp_light_params_t light;
     fp_color_params_t color;
     fp_aov_params_t aov;
     fp_preview_params_t preview;
     fp_run_params_t run;
+    fp_reference_params_t reference;
     fp_cmd_params_t cmd;
     /* Names of the options the user gave (CLI or preset), for "was this
      * set?" questions such as camera overrides. */

@@ -10,6 +10,7 @@
 #include "fp.h"
 #include "frameloop.h"
 #include "integrate.h"
+#include "scatter.h"
 #include "options.h"
 #include "seq.h"
 
@@ -83,6 +84,8 @@ typedef struct run_t {
     fp_integrate_data_t fog;
     fp_cl_t *cl;
     fp_integrate_cl_t icl;
+    fp_scatter_data_t light;         /* sun, lights, shadows (filters/scatter.h) */
+    fp_scatter_cl_t scl;
     fp_fogmap_stage_t fogmap;
     int use_cl;
     /* The frame loop (src/frameloop.h).  The reader and writer threads only
@@ -227,7 +230,16 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     }
     fs->fog_px = n;
     long suspicious = 0;
-    if (r->use_cl) {
+    if (r->light.active) {
+        /* Light in the fog: this frame's shadow map and projection. */
+        if ((rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, frame)))
+            goto done;
+        for (size_t i = 0; i < n; i++)
+            suspicious += isnan(depth[i]) || depth[i] < 0;
+        rc = r->use_cl ? fp_scatter_process_cl(&r->scl, &r->icl, &r->light, &r->fog, &view, depth,
+                                               fog)
+                       : fp_scatter_process(&r->light, &r->fog, &view, depth, fog);
+    } else if (r->use_cl) {
         for (size_t i = 0; i < n; i++)
             suspicious += isnan(depth[i]) || depth[i] < 0;
         rc = fp_integrate_process_cl(&r->icl, &r->fog, &view, depth, fog);
@@ -354,7 +366,7 @@ static int setup(run_t *r)
     }
     r->wopts = w;
     int rc = fp_integrate_commit(p, &r->fog);
-    if (rc)
+    if (rc || (rc = fp_scatter_commit(p, &r->light)))
         return rc;
     r->use_cl = !p->io.cpu;
     return FP_OK;
@@ -371,7 +383,8 @@ static int open_device(run_t *r)
         if (fp_cl_open(p->io.device, &r->cl))
             return FP_ERR;
         fp_info("OpenCL device: %s", fp_cl_device_label(r->cl));
-        if (fp_integrate_cl_init(r->cl, &r->icl))
+        if (fp_integrate_cl_init(r->cl, &r->icl) ||
+            (r->light.active && fp_scatter_cl_init(r->cl, &r->scl)))
             return FP_ERR;
     }
     int active;
@@ -613,7 +626,9 @@ int fp_pipeline_run(fp_params_t *p)
     fp_preview_release(&r.preview);
     fp_color_release(&r.color);
     fp_fogmap_release(&r.fogmap);
+    fp_scatter_release(&r.light);
     if (r.cl) {
+        fp_scatter_cl_release(&r.scl);
         fp_integrate_cl_release(&r.icl);
         fp_cl_close(r.cl);
     }

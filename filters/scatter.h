@@ -1,0 +1,70 @@
+/* fogpipe stage "scatter": light in the fog.  Single scattering of the
+ * ambient light, the sun (phase function, shadow map or screen-space
+ * shadows, fog self-shadowing) and local point and spot lights, integrated
+ * along each view ray (kernels/scatter_core.h, with the shared pieces in
+ * kernels/light_core.h).  CPU reference in double (fp_scatter_process),
+ * OpenCL in single precision (fp_scatter_process_cl, kernels/scatter.cl).
+ * The Monte Carlo reference (filters/reference.h) reads the same data. */
+#ifndef FP_SCATTER_H
+#define FP_SCATTER_H
+
+#include "camera.h"
+#include "clrt.h"
+#include "integrate.h"
+#include "params.h"
+
+#define FP_LT_COUNT_ 208   /* kernels/light_core.h FP_LT_COUNT */
+#define FP_SCATTER_MAX_STEPS 256
+
+/* Per run (commit) and per frame (fp_scatter_frame): the light parameters
+ * and the frame's shadow map and self-shadow grid. */
+typedef struct fp_scatter_data_t {
+    int active;               /* anything beyond ambient fog with albedo 1 */
+    double lt[FP_LT_COUNT_];  /* FP_LT_* */
+    /* This frame's sun shadow map (--shadow-map), camera-space z per texel. */
+    float *smap;
+    int smap_w, smap_h;
+    /* This frame's self-shadow grid (--self-shadow map): optical depth to
+     * the sun at each node. */
+    float *grid;
+    size_t grid_n;
+    unsigned long serial;     /* changes when smap or grid change (device copies) */
+} fp_scatter_data_t;
+
+/* Check and pack the light options (fog space).  d->active = 0 when the
+ * options ask for nothing the integrate stage does not already do. */
+int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d);
+
+/* Per frame: the view's projection for screen-space shadows, the shadow
+ * map of this frame, the self-shadow grid.  Errors name the file and frame. */
+int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                     const fp_view_t *view, const float *depth, long frame);
+
+void fp_scatter_release(fp_scatter_data_t *d);
+
+/* The view ray's fog layer in double precision: S (3) and returns tau. */
+double fp_scatter_ray(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                      const fp_view_t *v, const float *view_packed, const float *depth,
+                      const double o[3], const double dir[3], double len, double S[3]);
+
+/* CPU reference for a whole frame: fog[4*i] = (S.r, S.g, S.b, tau). */
+int fp_scatter_process(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                       const fp_view_t *v, const float *depth, float *out);
+
+typedef struct fp_scatter_cl_t {
+    fp_cl_t *cl;
+    cl_kernel kernel, grid_kernel;
+    cl_mem lt, smap, grid;
+    size_t grid_n;
+    unsigned long uploaded;   /* serial of smap/grid on the device */
+} fp_scatter_cl_t;
+
+/* The OpenCL version shares the integrate stage's buffers (depth, fog
+ * layer, view, fog parameters and tables). */
+int fp_scatter_cl_init(fp_cl_t *cl, fp_scatter_cl_t *s);
+int fp_scatter_process_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_scatter_data_t *d,
+                          const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
+                          float *out);
+void fp_scatter_cl_release(fp_scatter_cl_t *s);
+
+#endif

@@ -1,0 +1,279 @@
+/* fogpipe: light in the fog, the pieces shared by the deterministic
+ * single-scattering integrator (scatter_core.h) and the Monte Carlo
+ * reference (reference.cl / filters/reference.c), compiled as OpenCL C in
+ * single precision and as C in double precision like fog_core.h.
+ * Include after fog_core.h.
+ *
+ * Model (issue "Light in the fog"):
+ *   L(O) = tau(O,P) L(P) + int tau(O,u) sigma_s(u) [ L_amb
+ *          + sum_k E_k(u) p(theta_k) V_k(u) tau_k(u) ] du,
+ *   sigma_s = albedo sigma_t.
+ * Everything here is in fog space (+y up; src/camera.h). */
+#ifndef FP_LIGHT_CORE_H
+#define FP_LIGHT_CORE_H
+
+#include "phase.h"
+
+/* The packed view (fp_view_pack in src/camera.c; kernels/fp_common.h). */
+#ifndef FP_VIEW_ORIGIN
+#define FP_VIEW_ORIGIN 0
+#define FP_VIEW_M 3
+#define FP_VIEW_H 12
+#define FP_VIEW_NDC_SCALE 21
+#define FP_VIEW_NDC_OFFSET 23
+#define FP_VIEW_FAR 25
+#define FP_VIEW_DEPTH_KIND 26
+#endif
+
+/* Layout of the light parameter array (filled by fp_scatter_commit and
+ * fp_scatter_frame in filters/scatter.c). */
+#define FP_LT_ALBEDO 0
+#define FP_LT_AMB 1          /* 3: ambient in-scattered radiance (--fog-color) */
+#define FP_LT_SUN_ON 4
+#define FP_LT_SUN_DIR 5      /* 3: unit, toward the sun */
+#define FP_LT_SUN_E 8        /* 3: sun irradiance, color * intensity */
+#define FP_LT_PHASE 11       /* 3: kind (FP_PHASE_*), g, Rayleigh weight */
+#define FP_LT_SHADOWS 14     /* FP_SHADOWS_* */
+#define FP_LT_SELF 15        /* FP_SELF_*: fog self-shadowing of the sun */
+#define FP_LT_STEPS 16       /* segments along the view ray (deterministic) */
+#define FP_LT_PANELS 17      /* equiangular panels per local light (4 nodes each) */
+#define FP_LT_NLIGHTS 18
+#define FP_LT_SM_W 19        /* shadow map size, texels */
+#define FP_LT_SM_H 20
+#define FP_LT_SM_NDC 21      /* 16: fog point (row vector, w = 1) -> shadow map NDC */
+#define FP_LT_SM_Z 37        /* 4: fog point -> the map camera's z: dot(p, c) + c[3] */
+#define FP_LT_SM_BIAS 41     /* depth bias, scene units */
+#define FP_LT_SM_RADIUS 42   /* filtered lookup: taps -R..R texels each way */
+#define FP_LT_SS_STEPS 43    /* screen-space shadows: steps toward the sun */
+#define FP_LT_SS_DIST 44     /* how far toward the sun, scene units */
+#define FP_LT_SS_THICK 45    /* assumed thickness of what the depth buffer shows */
+#define FP_LT_SS_M 46        /* 9: fog vector -> camera vector (inverse of view m) */
+#define FP_LT_SS_H 55        /* 9: camera (x/z, y/z, 1) -> NDC, homogeneous */
+#define FP_LT_GRID 64        /* 3: self-shadow grid origin (fog space) */
+#define FP_LT_GRID_CELL 67   /* 3: cell size */
+#define FP_LT_GRID_N 70      /* 3: nodes along x, y, z */
+#define FP_LT_OD_STOP 73     /* the view ray's in-scatter ends where its optical depth exceeds this */
+#define FP_LT_SEG_OD 74     /* largest optical depth of one segment of the view ray */
+#define FP_LT_SEG_JUMP 75   /* largest change of the light over one segment, weighted */
+#define FP_LT_LIGHTS 80      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
+#define FP_LT_LIGHT_STRIDE 16
+#define FP_LT_MAX_LIGHTS 8
+#define FP_LT_COUNT (FP_LT_LIGHTS + FP_LT_MAX_LIGHTS * FP_LT_LIGHT_STRIDE)
+
+/* One local light's row. */
+#define FP_LL_TYPE 0         /* FP_LIGHT_POINT, FP_LIGHT_SPOT */
+#define FP_LL_POS 1          /* 3 */
+#define FP_LL_I 4            /* 3: radiant intensity, color * I (W/sr): E = I / d^2 */
+#define FP_LL_AXIS 7         /* 3: unit, the direction a spot shines */
+#define FP_LL_COS_IN 10      /* full intensity inside the inner cone */
+#define FP_LL_COS_OUT 11     /* none outside the outer cone */
+
+#define FP_LIGHT_POINT 0
+#define FP_LIGHT_SPOT 1
+
+#define FP_SHADOWS_NONE 0
+#define FP_SHADOWS_MAP 1
+#define FP_SHADOWS_SCREEN 2
+
+#define FP_SELF_OFF 0
+#define FP_SELF_EXACT 1
+#define FP_SELF_MAP 2
+
+/* Extinction at a fog-space point: the fogmap surface (its fine grid, the
+ * last level of the tables, whose B-spline surface is F itself) or the
+ * homogeneous main fog, times the height profile, inside the fog box; plus
+ * the haze.  The same model fp_fog_od integrates. */
+FP_FN fp_real fp_sigma_t(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                         FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                         fp_real x, fp_real y, fp_real z)
+{
+    fp_real s = 0;
+    fp_real hz = fp[FP_F_HAZE];
+    if (hz > 0 && y < fp[FP_F_HAZE + 3])
+        s = hz * (y < fp[FP_F_HAZE + 1] ? (fp_real)1
+                                         : exp(-(y - fp[FP_F_HAZE + 1]) / fp[FP_F_HAZE + 2]));
+    fp_real c = fp[FP_F_COS], sn = fp[FP_F_SIN];
+    fp_real px = x - fp[FP_F_OFF], py = y - fp[FP_F_OFF + 1], pz = z - fp[FP_F_OFF + 2];
+    fp_real qx = c * px - sn * pz, qz = sn * px + c * pz;
+    if (qx < fp[FP_F_BOX] || qx > fp[FP_F_BOX + 3] || py < fp[FP_F_BOX + 1] ||
+        py > fp[FP_F_BOX + 4] || qz < fp[FP_F_BOX + 2] || qz > fp[FP_F_BOX + 5])
+        return s;
+    fp_real h = fp_h(fp, py);
+    if (h <= 0 || fp[FP_F_SIGMA] <= 0)
+        return s;
+    if (fp[FP_F_HAS_MAP] == 0)
+        return s + fp[FP_F_SIGMA] * h;
+    fp_real U = (qx - fp[FP_F_A0]) * fp[FP_F_USCALE] + fp[FP_F_PAD_X0];
+    fp_real V = (qz - fp[FP_F_B0]) * fp[FP_F_VSCALE] + fp[FP_F_PAD_Y0];
+    int wrap = (int)fp[FP_F_WRAP];
+    if (wrap == 0 && (U < fp[FP_F_CLIP] || U > fp[FP_F_CLIP + 1] || V < fp[FP_F_CLIP + 2] ||
+                      V > fp[FP_F_CLIP + 3]))
+        return s;
+    if (wrap == 1) {
+        U = fmin(fmax(U, fp[FP_F_CLIP]), fp[FP_F_CLIP + 1]);
+        V = fmin(fmax(V, fp[FP_F_CLIP + 2]), fp[FP_F_CLIP + 3]);
+    }
+    fp_real f = fp_level_eval(fp, lvi, lvf, coef, (int)fp[FP_F_NLEVELS], U, V);
+    return s + fp[FP_F_SIGMA] * fmax(f, (fp_real)0) * h;
+}
+
+/* Shadow map: the sun's orthographic depth map (camera-space z, +inf where
+ * it sees nothing).  Percentage-closer filtering: bilinear weights of the
+ * four texels around each tap, taps on a (2R+1)^2 texel grid.  Points
+ * outside the map are lit. */
+FP_FN fp_real fp_shadow_map(FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *smap,
+                            fp_real x, fp_real y, fp_real z)
+{
+    FP_CONSTANT const fp_real *m = lt + FP_LT_SM_NDC;
+    fp_real w = x * m[3] + y * m[7] + z * m[11] + m[15];
+    fp_real nx = (x * m[0] + y * m[4] + z * m[8] + m[12]) / w;
+    fp_real ny = (x * m[1] + y * m[5] + z * m[9] + m[13]) / w;
+    FP_CONSTANT const fp_real *cz = lt + FP_LT_SM_Z;
+    fp_real pz = x * cz[0] + y * cz[1] + z * cz[2] + cz[3] - lt[FP_LT_SM_BIAS];
+    int W = (int)lt[FP_LT_SM_W], H = (int)lt[FP_LT_SM_H], R = (int)lt[FP_LT_SM_RADIUS];
+    fp_real tx = nx * W - (fp_real)0.5, ty = ny * H - (fp_real)0.5;
+    if (!(tx >= -1 && ty >= -1 && tx <= W && ty <= H))
+        return 1;
+    fp_real lit = 0, wsum = 0;
+    for (int j = -R; j <= R; j++)
+        for (int i = -R; i <= R; i++) {
+            fp_real sx = tx + i, sy = ty + j;
+            fp_real fx = floor(sx), fy = floor(sy);
+            fp_real ax = sx - fx, ay = sy - fy;
+            int ix = (int)fx, iy = (int)fy;
+            for (int k = 0; k < 4; k++) {
+                int u = ix + (k & 1), v = iy + (k >> 1);
+                fp_real wk = ((k & 1) ? ax : 1 - ax) * ((k >> 1) ? ay : 1 - ay);
+                /* Off the map: lit. */
+                fp_real zm = u < 0 || v < 0 || u >= W || v >= H ? (fp_real)FP_INF
+                                                                 : (fp_real)smap[v * W + u];
+                lit += wk * (pz <= zm ? (fp_real)1 : (fp_real)0);
+                wsum += wk;
+            }
+        }
+    return wsum > 0 ? lit / wsum : 1;
+}
+
+/* Camera-space z of the scene at depth-buffer pixel (i, j) (+inf: sky). */
+FP_FN fp_real fp_scene_z(FP_CONSTANT const float *view, FP_GLOBAL const float *depth, int width,
+                         int i, int j)
+{
+    fp_real dv = depth[j * width + i];
+    int kind = (int)view[FP_VIEW_DEPTH_KIND];
+    /* Depth kinds: 0 planar, 1 radial, 2 inverse (FP_DEPTH_*). */
+    if (isnan(dv) || dv < 0 || (kind == 2 && dv == 0))
+        return FP_INF;
+    FP_CONSTANT const float *h = view + FP_VIEW_H;
+    fp_real nx = ((fp_real)i + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
+    fp_real ny = ((fp_real)j + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
+    fp_real cw = h[6] * nx + h[7] * ny + h[8];
+    fp_real cx = (h[0] * nx + h[1] * ny + h[2]) / cw, cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    fp_real zc = kind == 0 ? dv : kind == 1 ? dv / sqrt(cx * cx + cy * cy + 1) : 1 / dv;
+    if (isinf(zc) || zc >= (fp_real)1e10 || dv >= view[FP_VIEW_FAR])
+        return FP_INF;
+    return zc;
+}
+
+/* Screen-space shadows: march from the point toward the sun and look for
+ * something the camera's depth buffer shows in front of the march, by at
+ * most the assumed thickness.  What the camera does not see (off screen,
+ * hidden behind other things) casts no shadow: the documented limits. */
+FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
+                               FP_GLOBAL const float *depth, int width, int height, fp_real x,
+                               fp_real y, fp_real z)
+{
+    int n = (int)lt[FP_LT_SS_STEPS];
+    fp_real step = lt[FP_LT_SS_DIST] / n, thick = lt[FP_LT_SS_THICK];
+    FP_CONSTANT const fp_real *m = lt + FP_LT_SS_M, *h = lt + FP_LT_SS_H;
+    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
+    for (int s = 1; s <= n; s++) {
+        fp_real qx = x + s * step * l[0] - view[0], qy = y + s * step * l[1] - view[1],
+                qz = z + s * step * l[2] - view[2];
+        fp_real cx = m[0] * qx + m[1] * qy + m[2] * qz;
+        fp_real cy = m[3] * qx + m[4] * qy + m[5] * qz;
+        fp_real cz = m[6] * qx + m[7] * qy + m[8] * qz;
+        if (!(cz > 0))
+            return 1;
+        fp_real ux = cx / cz, uy = cy / cz;
+        fp_real nw = h[6] * ux + h[7] * uy + h[8];
+        fp_real nx = (h[0] * ux + h[1] * uy + h[2]) / nw, ny = (h[3] * ux + h[4] * uy + h[5]) / nw;
+        fp_real px = nx / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET];
+        fp_real py = ny / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1];
+        if (!(px >= 0 && py >= 0 && px < width && py < height))
+            return 1;
+        fp_real zs = fp_scene_z(view, depth, width, (int)px, (int)py);
+        if (zs < cz && cz - zs < thick)
+            return 0;
+    }
+    return 1;
+}
+
+/* The sun's visibility at a point (geometry only). */
+FP_FN fp_real fp_sun_visibility(FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *smap,
+                                FP_CONSTANT const float *view, FP_GLOBAL const float *depth,
+                                int width, int height, fp_real x, fp_real y, fp_real z)
+{
+    int mode = (int)lt[FP_LT_SHADOWS];
+    if (mode == FP_SHADOWS_MAP)
+        return fp_shadow_map(lt, smap, x, y, z);
+    if (mode == FP_SHADOWS_SCREEN)
+        return fp_shadow_screen(lt, view, depth, width, height, x, y, z);
+    return 1;
+}
+
+/* Optical depth from a point to the sun, from the precomputed grid
+ * (trilinear; the grid holds the exact optical depth at its nodes), or -1
+ * when the point is outside it. */
+FP_FN fp_real fp_sun_od_grid(FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid,
+                             fp_real x, fp_real y, fp_real z)
+{
+    int nx = (int)lt[FP_LT_GRID_N], ny = (int)lt[FP_LT_GRID_N + 1], nz = (int)lt[FP_LT_GRID_N + 2];
+    fp_real gx = (x - lt[FP_LT_GRID]) / lt[FP_LT_GRID_CELL];
+    fp_real gy = (y - lt[FP_LT_GRID + 1]) / lt[FP_LT_GRID_CELL + 1];
+    fp_real gz = (z - lt[FP_LT_GRID + 2]) / lt[FP_LT_GRID_CELL + 2];
+    if (!(gx >= 0 && gy >= 0 && gz >= 0 && gx <= nx - 1 && gy <= ny - 1 && gz <= nz - 1))
+        return -1;
+    int i = (int)fmin(floor(gx), (fp_real)(nx - 2)), j = (int)fmin(floor(gy), (fp_real)(ny - 2)),
+        k = (int)fmin(floor(gz), (fp_real)(nz - 2));
+    fp_real ax = gx - i, ay = gy - j, az = gz - k, od = 0;
+    for (int c = 0; c < 8; c++) {
+        int di = c & 1, dj = (c >> 1) & 1, dk = c >> 2;
+        fp_real w = (di ? ax : 1 - ax) * (dj ? ay : 1 - ay) * (dk ? az : 1 - az);
+        od += w * grid[((k + dk) * ny + (j + dj)) * nx + (i + di)];
+    }
+    return od;
+}
+
+/* Transmittance from a point toward the sun through the fog (tau_k). */
+FP_FN fp_real fp_sun_tau(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                         FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                         FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
+                         FP_GLOBAL const float *grid, fp_real x, fp_real y, fp_real z)
+{
+    int self = (int)lt[FP_LT_SELF];
+    if (self == FP_SELF_OFF)
+        return 1;
+    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
+    fp_real od = self == FP_SELF_MAP ? fp_sun_od_grid(lt, grid, x, y, z) : -1;
+    if (od < 0)
+        od = fp_fog_od(fp, lvi, lvf, coef, occ, x, y, z, l[0], l[1], l[2], FP_INF, 0);
+    return exp(-od);
+}
+
+/* A spot's cone: 1 inside the inner cone, 0 outside the outer, smooth
+ * between; `dx, dy, dz` the unit direction from the light to the point. */
+FP_FN fp_real fp_light_cone(FP_CONSTANT const fp_real *row, fp_real dx, fp_real dy, fp_real dz)
+{
+    if ((int)row[FP_LL_TYPE] != FP_LIGHT_SPOT)
+        return 1;
+    fp_real c = dx * row[FP_LL_AXIS] + dy * row[FP_LL_AXIS + 1] + dz * row[FP_LL_AXIS + 2];
+    fp_real ci = row[FP_LL_COS_IN], co = row[FP_LL_COS_OUT];
+    if (c >= ci)
+        return 1;
+    if (c <= co)
+        return 0;
+    fp_real s = (c - co) / (ci - co);
+    return s * s * (3 - 2 * s);
+}
+
+#endif
