@@ -14,6 +14,7 @@ fi
 G="$FP_SRCDIR/tests/golden"
 
 # name | options
+P="$FP_SRCDIR/samples/presets"
 FM="--fogmap $FP_SAMPLES/fogmap.exr --fog-rect -60,-20,60,160 --density 0.1 --height 0,5 --levels 3"
 cases="height|--density 0.03 --height 0,12 --fog-color 0.75,0.78,0.82
 homogeneous|--visibility 150 --height 0,inf --fog-color 0.6,0.65,0.7
@@ -21,7 +22,10 @@ layer|--density 0.08 --height 1,2,6 --fog-color 0.9,0.9,0.95
 fogmap-haar|$FM --basis haar
 fogmap-linear|$FM --basis linear
 fogmap-quadratic|$FM --basis quadratic
-fogmap-cubic|$FM --basis cubic --haze 0.002"
+fogmap-cubic|$FM --basis cubic --haze 0.002
+preset-mist|--preset $P/morning-valley-mist.preset --shadow-map $FP_SAMPLES/shadow.####.exr
+preset-shafts|--preset $P/low-sun-shafts.preset --shadow-map $FP_SAMPLES/shadow.####.exr
+preset-lamps|--preset $P/night-street-lamps.preset"
 names=$(echo "$cases" | cut -d'|' -f1)
 
 echo "$cases" | while IFS='|' read -r name opts; do
