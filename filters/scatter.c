@@ -265,6 +265,15 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
         }
     }
     d->active = sun || l->num_lights > 0 || l->albedo != 1;
+    /* Fog with no top soaks up all of the sun's light before it arrives. */
+    const fp_fog_params_t *f = &p->fog;
+    int open_main = f->density > 0 && isinf(f->height[1]) && isinf(f->height[2]) &&
+                    isinf(f->box[4]);
+    int open_haze = f->haze > 0 && isinf(f->haze_height[1]) && isinf(f->haze_height[2]);
+    if (sun && l->self_shadow != FP_SELF_SHADOW_OFF && (open_main || open_haze))
+        fp_warn("--sun: the %s has no top (--%s Y0,inf without TOP): no sunlight gets through it; "
+                "give it a TOP or a finite H, or use --self-shadow off",
+                open_main ? "fog" : "haze", open_main ? "height" : "haze-height");
     return FP_OK;
 }
 
@@ -341,30 +350,58 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
      * of a texel along the map's x axis). */
     double bias = p->light.shadow_bias;
     if (!(bias > 0)) {
+        /* A texel in scene units, times 1.5, plus the rise of level ground
+         * seen by the sun over the filter's reach: (R + 1) texels times
+         * the sun's horizontal over its vertical component. */
         double gx = sqrt(m[0] * m[0] + m[4] * m[4] + m[8] * m[8]) * info->disp_w;
-        bias = gx > 0 ? 1.5 / gx : 0;
+        double texel = gx > 0 ? 1 / gx : 0;
+        const double *l = d->lt + FP_LT_SUN_DIR;
+        double slope = sqrt(l[0] * l[0] + l[2] * l[2]) / fmax(l[1], 0.1);
+        bias = texel * (1.5 + (p->light.shadow_filter + 1) * slope);
     }
     d->lt[FP_LT_SM_BIAS] = bias;
     fp_frame_free(f);
     return FP_OK;
 }
 
-/* The self-shadow grid's box: the camera and the stretch of every 4th
- * pixel's ray that holds fog, slightly enlarged. */
+static const int no_lvi[FP_LEVEL_TABLE * 8];
+static const double no_lvf[FP_LEVEL_TABLE * 4];
+static const float no_coef[1];
+static const unsigned char no_occ[1];
+static const float no_map[1] = { INFINITY };
+
+#define TABLES(t)                                                                      \
+    (t) ? (t)->lvi : no_lvi, (t) ? (t)->lvf : no_lvf, (t) ? (t)->coef : no_coef,       \
+        (t) ? (t)->occ : no_occ
+
+/* The self-shadow grid's box: the camera and the stretch of every 8th
+ * pixel's ray (each way) that holds fog, slightly enlarged. */
 static void grid_bounds(fp_scatter_data_t *d, const fp_integrate_data_t *fog, const fp_view_t *v,
                         const float *depth)
 {
     double lo[3], hi[3];
     for (int i = 0; i < 3; i++)
         lo[i] = hi[i] = v->origin[i];
-    for (int y = 0; y < v->height; y += 4)
-        for (int x = 0; x < v->width; x += 4) {
+    for (int y = 0; y < v->height; y += 8)
+        for (int x = 0; x < v->width; x += 8) {
             double dir[3], len, ta, tb;
             fp_view_ray(v, x, y, depth[(size_t)y * v->width + x], dir, &len);
             if (!fp_fog_span(fog->fp, v->origin[0], v->origin[1], v->origin[2], dir[0], dir[1],
                              dir[2], len, &ta, &tb))
                 continue;
-            tb = fmin(tb, ta + fmin(fog->fp[FP_F_CAP], 1e5));
+            if (isinf(tb)) {
+                /* Unbounded: as far as the integrator goes (its optical
+                 * depth stop), found by doubling. */
+                double od0 = fp_fog_od(fog->fp, TABLES(fog->tables), v->origin[0], v->origin[1],
+                                       v->origin[2], dir[0], dir[1], dir[2], ta, 0);
+                double step = 1;
+                for (int k = 0; k < 40 && step < fog->fp[FP_F_CAP]; k++, step *= 2)
+                    if (fp_fog_od(fog->fp, TABLES(fog->tables), v->origin[0], v->origin[1],
+                                  v->origin[2], dir[0], dir[1], dir[2], ta + step, 0) - od0 >=
+                        d->lt[FP_LT_OD_STOP])
+                        break;
+                tb = ta + fmin(step, fog->fp[FP_F_CAP]);
+            }
             for (int e = 0; e < 2; e++)
                 for (int i = 0; i < 3; i++) {
                     double q = v->origin[i] + (e ? tb : ta) * dir[i];
@@ -396,6 +433,10 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
         if (rc)
             return rc;
     }
+    /* Without a fogmap the exact optical depth toward the sun is a closed
+     * form: faster than any grid. */
+    if ((int)lt[FP_LT_SELF] == FP_SELF_MAP && fog->fp[FP_F_HAS_MAP] == 0)
+        lt[FP_LT_SELF] = FP_SELF_EXACT;
     if ((int)lt[FP_LT_SELF] == FP_SELF_MAP && lt[FP_LT_SUN_ON] != 0)
         grid_bounds(d, fog, v, depth);
     static _Atomic unsigned long serial;
@@ -409,16 +450,6 @@ void fp_scatter_release(fp_scatter_data_t *d)
     free(d->grid);
     d->smap = d->grid = NULL;
 }
-
-static const int no_lvi[FP_LEVEL_TABLE * 8];
-static const double no_lvf[FP_LEVEL_TABLE * 4];
-static const float no_coef[1];
-static const unsigned char no_occ[1];
-static const float no_map[1] = { INFINITY };
-
-#define TABLES(t)                                                                      \
-    (t) ? (t)->lvi : no_lvi, (t) ? (t)->lvf : no_lvf, (t) ? (t)->coef : no_coef,       \
-        (t) ? (t)->occ : no_occ
 
 double fp_scatter_ray(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                       const fp_view_t *v, const float *view_packed, const float *depth,

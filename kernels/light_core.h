@@ -197,8 +197,9 @@ FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const 
         fp_real ux = cx / cz, uy = cy / cz;
         fp_real nw = h[6] * ux + h[7] * uy + h[8];
         fp_real nx = (h[0] * ux + h[1] * uy + h[2]) / nw, ny = (h[3] * ux + h[4] * uy + h[5]) / nw;
-        fp_real px = nx / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET];
-        fp_real py = ny / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1];
+        /* + 0.5: pixel i's center is at i, its area [i - 0.5, i + 0.5). */
+        fp_real px = nx / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
+        fp_real py = ny / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] + (fp_real)0.5;
         if (!(px >= 0 && py >= 0 && px < width && py < height))
             return 1;
         fp_real zs = fp_scene_z(view, depth, width, (int)px, (int)py);
@@ -239,7 +240,8 @@ FP_FN fp_real fp_sun_od_grid(FP_CONSTANT const fp_real *lt, FP_GLOBAL const floa
     for (int c = 0; c < 8; c++) {
         int di = c & 1, dj = (c >> 1) & 1, dk = c >> 2;
         fp_real w = (di ? ax : 1 - ax) * (dj ? ay : 1 - ay) * (dk ? az : 1 - az);
-        od += w * grid[((k + dk) * ny + (j + dj)) * nx + (i + di)];
+        if (w > 0) /* a node may hold +inf: no 0 * inf */
+            od += w * grid[((k + dk) * ny + (j + dj)) * nx + (i + di)];
     }
     return od;
 }
@@ -255,7 +257,7 @@ FP_FN fp_real fp_sun_tau(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
         return 1;
     FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
     fp_real od = self == FP_SELF_MAP ? fp_sun_od_grid(lt, grid, x, y, z) : -1;
-    if (od < 0)
+    if (od < (fp_real)-0.5)
         od = fp_fog_od(fp, lvi, lvf, coef, occ, x, y, z, l[0], l[1], l[2], FP_INF, 0);
     return exp(-od);
 }

@@ -109,7 +109,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
         fp_real od_before = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0);
         for (int k = 0; k < 80; k++) {
             fp_real od = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta + step, 0);
-            if (od - od_before >= od_stop || od_total - od <= (fp_real)1e-4 * od_total ||
+            if (od - od_before >= od_stop ||
+                (isfinite(od_total) && od_total - od <= (fp_real)1e-4 * od_total) ||
                 step >= fp[FP_F_CAP])
                 break;
             step *= 2;
@@ -179,6 +180,10 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
         if (x < (fp_real)0.25 * xmax && jump * c0 < (fp_real)0.25 * lt[FP_LT_SEG_JUMP] * jscale)
             h = fmin(2 * h, h0);
     }
+    /* Beyond tb (an unbounded ray stops with 1e-4 of its optical depth
+     * left): that fog with the light of the last point. */
+    for (int c = 0; c < 3; c++)
+        S[c] += albedo * Ja[c] * fmax(exp(-od) - tau, (fp_real)0);
     /* Local lights over [ta, t_last]. */
     int nl = (int)lt[FP_LT_NLIGHTS];
     fp_real tl = segt[last];
@@ -190,11 +195,35 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
         fp_real rx = qx - tc * dx, ry = qy - tc * dy, rz = qz - tc * dz;
         fp_real D = fmax(sqrt(rx * rx + ry * ry + rz * rz), (fp_real)1e-6 * (1 + fabs(tc)));
         fp_real th0 = atan2(ta - tc, D), th1 = atan2(tl - tc, D);
-        fp_real dth = (th1 - th0) / panels;
+        /* The phase function's peak (mu = -sin(theta) -> 1 for g > 0, at
+         * theta = -pi/2; mirrored for g < 0) is about 1 - |g| wide in
+         * theta: with e the angle from the peak, panels grow
+         * geometrically away from it, starting at (1 - |g|) / 4. */
+        fp_real g = ph[1];
+        int peaked = (kind == FP_PHASE_HG || kind == FP_PHASE_CS || kind == FP_PHASE_MIX ||
+                      kind == FP_PHASE_MIXHG) && fabs(g) > (fp_real)0.2;
+        fp_real sgn = g < 0 ? (fp_real)-1 : (fp_real)1, hp = (fp_real)1.5707963267948966;
+        fp_real ea = hp + sgn * (sgn > 0 ? th0 : th1), eb = hp + sgn * (sgn > 0 ? th1 : th0);
+        fp_real es = fmax(ea, (fp_real)0.25 * (1 - fabs(g)));
+        int geo = peaked && panels > 1 && es < eb && ea >= 0;
+        int first = geo && ea < es;   /* a uniform panel before the geometric ones */
+        fp_real ratio = geo ? pow(eb / es, (fp_real)1 / (panels - first)) : 1;
         fp_real acc = 0;
-        for (int q = 0; q < panels; q++)
-            for (int g = 0; g < 4; g++) {
-                fp_real th = th0 + (q + fp_gl_x[FP_GL_FIRST(4) + g]) * dth;
+        for (int q = 0; q < panels; q++) {
+            fp_real pa, pb;
+            if (!geo) {
+                pa = ea + (eb - ea) * q / panels;
+                pb = ea + (eb - ea) * (q + 1) / panels;
+            } else if (first && q == 0) {
+                pa = ea;
+                pb = es;
+            } else {
+                pa = es * pow(ratio, (fp_real)(q - first));
+                pb = q + 1 == panels ? eb : es * pow(ratio, (fp_real)(q + 1 - first));
+            }
+            for (int gq = 0; gq < 4; gq++) {
+                fp_real e = pa + (pb - pa) * fp_gl_x[FP_GL_FIRST(4) + gq];
+                fp_real th = sgn * (e - hp);
                 fp_real t = tc + D * tan(th);
                 fp_real px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
                 fp_real sig = fp_sigma_t(fp, lvi, lvf, coef, px, py, pz);
@@ -222,10 +251,11 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
                                       (fp_real)0), (fp_real)1);
                 fp_real odt = odc[lo] + f * (odc[hi] - odc[lo]);
                 fp_real odl = fp_fog_od(fp, lvi, lvf, coef, occ, px, py, pz, vx, vy, vz, r, 0);
-                acc += fp_gl_w[FP_GL_FIRST(4) + g] * sig * exp(-odt - odl) * cone *
+                acc += fp_gl_w[FP_GL_FIRST(4) + gq] * (pb - pa) * sig * exp(-odt - odl) * cone *
                        fp_phase(kind, ph[1], ph[2], vx * dx + vy * dy + vz * dz);
             }
-        acc *= albedo * dth / D;
+        }
+        acc *= albedo / D;
         for (int c = 0; c < 3; c++)
             S[c] += acc * row[FP_LL_I + c];
     }

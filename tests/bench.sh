@@ -7,6 +7,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 "$FP_SCENE" -o "$tmp/seed" --width 800 --height 600 --frames 1-1 --shadow-size 0 >/dev/null
 "$FP_SCENE" -o "$tmp/hd" --width 1920 --height 1080 --frames 1-8 --shadow-size 0 >/dev/null
+"$FP_SCENE" -o "$tmp/light" --width 400 --height 300 --frames 1-1 >/dev/null
 {
   echo "# fogpipe benchmarks"
   echo
@@ -16,6 +17,8 @@ trap 'rm -rf "$tmp"' EXIT
   echo "the depth and the read-back of the fog layer. 800x600 is the resolution of seed 000."
   echo
   "$FP_BENCH_FOG" "$tmp/seed/scene.0001.exr"
+  echo
+  "$FP_BENCH_LIGHT" "$tmp/light/scene.0001.exr" "$tmp/light/shadow.0001.exr" "$tmp/light/fogmap.exr"
   echo
   # Whole pipeline: frames/s from --stats (the frame loop's wall time: the
   # device and program set-up before the first frame are left out), best of
