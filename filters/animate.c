@@ -36,7 +36,8 @@ const fp_option_t fp_animate_options[] = {
       "noise steps per second at the coarsest detail level, 2^(2/3) times more per finer level",
       NULL, 0 },
     { "seed", 0, FP_OPT_INT, AN(seed), 0, 0, "0", 0, 2147483647, NULL, "N",
-      "seed of the turbulence noise", NULL, 0 },
+      "seed of the turbulence noise and of the Monte Carlo reference (--integrator reference)",
+      NULL, 0 },
     { "advect", 0, FP_OPT_ENUM, AN(advect), 0, 0, "off", 0, 0, "off|semi-lagrangian|maccormack",
       NULL, "carry the fogmap through its rectangle by the wind, one step per frame from "
       "--advect-start (instead of moving the rectangle); bilinear, boundary per --fog-wrap",

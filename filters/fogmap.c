@@ -38,8 +38,10 @@ const fp_option_t fp_fogmap_options[] = {
       "drop a detail level where its cells project below PX pixels (0 = off)", NULL, 0 },
     { "min-transmittance", 0, FP_OPT_REAL, FM(min_transmittance), 0, 0, "0", 0, 1, NULL, "T",
       "stop integrating a ray once its transmittance is below T (0 = never)", NULL, 0 },
-    { "integrator", 0, FP_OPT_ENUM, FM(integrator), 0, 0, "exact", 0, 0, "exact|march", NULL,
-      "exact cell-by-cell integration, or the uniform raymarching baseline (seed 002 sec. 4.2)",
+    { "integrator", 0, FP_OPT_ENUM, FM(integrator), 0, 0, "exact", 0, 0,
+      "exact|march|reference", NULL,
+      "exact cell-by-cell integration, the uniform raymarching baseline (seed 002 sec. 4.2), "
+      "or the Monte Carlo reference of the light in the fog (--spp, --seed, --bounces; slow)",
       NULL, 0 },
     { "steps", 0, FP_OPT_INT, FM(steps), 0, 0, "64", 1, 1 << 20, NULL, "N",
       "raymarching steps per ray (--integrator march)", NULL, 0 },
@@ -248,10 +250,11 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
     if (rc)
         return rc;
     const fp_fogmap_t *m = &s->map;
+    const char *name = fm->fogmap ? fm->fogmap : "fogmap";
     if (m->levels < fm->levels)
         fp_warn("%s: %dx%d with --fog-wrap repeat allows %d levels (2^levels must divide the "
-                "size), not %d", fm->fogmap, w, h, m->levels, fm->levels);
-    fp_info("%s: %dx%d, %d levels, decomposed in %.1f ms (%s)", fm->fogmap, w, h, m->levels,
+                "size), not %d", name, w, h, m->levels, fm->levels);
+    fp_info("%s: %dx%d, %d levels, decomposed in %.1f ms (%s)", name, w, h, m->levels,
             s->decompose_ms, s->used_cl ? "OpenCL" : "C");
 
     /* Fog-space rectangle: with --up z fog z is -world y, so the rows that

@@ -15,6 +15,7 @@ extern const fp_option_t fp_camera_options[];
 extern const fp_option_t fp_integrate_options[];
 extern const fp_option_t fp_fogmap_options[];
 extern const fp_option_t fp_scatter_options[];
+extern const fp_option_t fp_reference_options[];
 extern const fp_option_t fp_animate_options[];
 extern const fp_option_t fp_color_options[];
 extern const fp_option_t fp_aov_options[];
@@ -46,6 +47,7 @@ const fp_option_group_t fp_option_groups[] = {
     { "Fog", fp_integrate_options },
     { "Fogmap (wavelet fog)", fp_fogmap_options },
     { "Light (sun, local lights, shadows)", fp_scatter_options },
+    { "Monte Carlo reference", fp_reference_options },
     { "Animation", fp_animate_options },
     { "Color (OpenColorIO)", fp_color_options },
     { "Fog layers (AOVs)", fp_aov_options },

@@ -50,7 +50,7 @@ typedef struct fp_fog_params_t {
 } fp_fog_params_t;
 
 enum { FP_BASIS_HAAR = 0, FP_BASIS_LINEAR, FP_BASIS_QUADRATIC, FP_BASIS_CUBIC };
-enum { FP_INTEGRATOR_EXACT = 0, FP_INTEGRATOR_MARCH = 1 };
+enum { FP_INTEGRATOR_EXACT = 0, FP_INTEGRATOR_MARCH = 1, FP_INTEGRATOR_REFERENCE = 2 };
 
 typedef struct fp_fogmap_params_t {
     char *fogmap;         /* image file */

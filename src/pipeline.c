@@ -11,6 +11,7 @@
 #include "frameloop.h"
 #include "integrate.h"
 #include "scatter.h"
+#include "reference.h"
 #include "options.h"
 #include "seq.h"
 
@@ -86,6 +87,8 @@ typedef struct run_t {
     fp_integrate_cl_t icl;
     fp_scatter_data_t light;         /* sun, lights, shadows (filters/scatter.h) */
     fp_scatter_cl_t scl;
+    fp_reference_cl_t rcl;           /* --integrator reference */
+    int reference;
     fp_fogmap_stage_t fogmap;
     int use_cl;
     /* The frame loop (src/frameloop.h).  The reader and writer threads only
@@ -230,7 +233,15 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     }
     fs->fog_px = n;
     long suspicious = 0;
-    if (r->light.active) {
+    if (r->reference) {
+        /* The Monte Carlo reference of the same fog and light. */
+        if ((rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, frame)))
+            goto done;
+        for (size_t i = 0; i < n; i++)
+            suspicious += isnan(depth[i]) || depth[i] < 0;
+        rc = r->use_cl ? fp_reference_process_cl(&r->rcl, p, &r->light, &r->fog, &view, depth, fog)
+                       : fp_reference_process(p, &r->light, &r->fog, &view, depth, fog);
+    } else if (r->light.active) {
         /* Light in the fog: this frame's shadow map and projection. */
         if ((rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, frame)))
             goto done;
@@ -368,6 +379,7 @@ static int setup(run_t *r)
     int rc = fp_integrate_commit(p, &r->fog);
     if (rc || (rc = fp_scatter_commit(p, &r->light)))
         return rc;
+    r->reference = p->fogmap.integrator == FP_INTEGRATOR_REFERENCE;
     r->use_cl = !p->io.cpu;
     return FP_OK;
 }
@@ -384,7 +396,8 @@ static int open_device(run_t *r)
             return FP_ERR;
         fp_info("OpenCL device: %s", fp_cl_device_label(r->cl));
         if (fp_integrate_cl_init(r->cl, &r->icl) ||
-            (r->light.active && fp_scatter_cl_init(r->cl, &r->scl)))
+            (r->light.active && fp_scatter_cl_init(r->cl, &r->scl)) ||
+            (r->reference && fp_reference_cl_init(r->cl, &r->rcl)))
             return FP_ERR;
     }
     int active;
@@ -629,6 +642,8 @@ int fp_pipeline_run(fp_params_t *p)
     fp_scatter_release(&r.light);
     if (r.cl) {
         fp_scatter_cl_release(&r.scl);
+        if (r.reference)
+            fp_reference_cl_release(&r.rcl);
         fp_integrate_cl_release(&r.icl);
         fp_cl_close(r.cl);
     }

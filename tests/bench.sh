@@ -20,6 +20,24 @@ trap 'rm -rf "$tmp"' EXIT
   echo
   "$FP_BENCH_LIGHT" "$tmp/light/scene.0001.exr" "$tmp/light/shadow.0001.exr" "$tmp/light/fogmap.exr"
   echo
+  # The accuracy of light in the fog: each line is printed by a test of
+  # make check that fails when its figure leaves the stated tolerance.
+  echo "### Accuracy of light in the fog (figures printed by the tests)"
+  echo
+  echo "Each line comes from a test in \`make check\` that fails when the figure leaves its tolerance."
+  echo
+  run_test() {  # run_test NAME: the test's output (figures on stdout and stderr)
+    CMOCKA_MESSAGE_OUTPUT=TAP FP_SCENE="$FP_SCENE" FP_SAMPLES="$tmp/light" FP_TMP="$tmp/tests" \
+      FP_SRCDIR="${FP_SRCDIR:-.}" "$FP_BUILDDIR/tests/$1" 2>&1 || true
+  }
+  mkdir -p "$tmp/tests"
+  run_test test_phase | grep -E '^(normalization|pdf vs phase|mean cosine|sampled mu)' | sed 's/^/- phase functions, /'
+  run_test test_scatter | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C)' |
+    sed 's/^/- /'
+  if [ -x "$FP_BUILDDIR/tests/test_reference" ]; then
+    run_test test_reference | grep -E '^(figure|reference)' | sed 's/^figure: //; s/^/- /'
+  fi
+  echo
   # Whole pipeline: frames/s from --stats (the frame loop's wall time: the
   # device and program set-up before the first frame are left out), best of
   # two runs.  The I/O floor is the same run with the fog stage skipped

@@ -1,0 +1,46 @@
+/* fogpipe: the Monte Carlo reference (--integrator reference), per pixel.
+ * Host side and C version: filters/reference.c; the estimator itself is in
+ * reference_core.h.  One launch covers a band of rows and a batch of
+ * samples [s0, s1) and writes each pixel's sums over the batch (S.rgb,
+ * tau, then their squares, for the standard errors); the host adds the
+ * batches in double precision. */
+#include "fp_common.h"
+#include "fog_core.h"
+#include "light_core.h"
+#include "reference_core.h"
+
+__kernel void reference_fog(__global const float *depth, __global float *acc,
+                            __constant const float *view, const int width, const int height,
+                            const int row0, const int rows, __constant const float *fp,
+                            __constant const int *lvi, __constant const float *lvf,
+                            __global const float *coef, __constant const float *lt,
+                            __global const float *smap, __constant const float *rp,
+                            __global const float *grid, const uint seed, const int s0,
+                            const int s1)
+{
+    int g = get_global_id(0);
+    if (g >= width * rows)
+        return;
+    int x = g % width, y = row0 + g / width;
+    int i = y * width + x;
+    float len;
+    float3 dir = fp_view_ray(view, x, y, depth[i], &len);
+    float3 o = fp_view_origin(view);
+    float sum[4] = { 0.0f, 0.0f, 0.0f, 0.0f }, sq[4] = { 0.0f, 0.0f, 0.0f, 0.0f };
+    for (int s = s0; s < s1; s++) {
+        float S[3];
+        float tau = fp_ref_sample(fp, lvi, lvf, coef, lt, smap, view, depth, width, height, rp,
+                                  grid, seed, (uint)i, (uint)s, o.x, o.y, o.z, dir.x, dir.y,
+                                  dir.z, len, S);
+        for (int c = 0; c < 3; c++) {
+            sum[c] += S[c];
+            sq[c] += S[c] * S[c];
+        }
+        sum[3] += tau;
+        sq[3] += tau * tau;
+    }
+    for (int c = 0; c < 4; c++) {
+        acc[8 * g + c] = sum[c];
+        acc[8 * g + 4 + c] = sq[c];
+    }
+}
