@@ -35,7 +35,9 @@ trap 'rm -rf "$tmp"' EXIT
   run_test test_scatter | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C)' |
     sed 's/^/- /'
   if [ -x "$FP_BUILDDIR/tests/test_reference" ]; then
-    run_test test_reference | grep -E '^(figure|reference)' | sed 's/^figure: //; s/^/- /'
+    run_test test_reference |
+      grep -E '^(ray [0-9]+: T =|ray [0-9]+: ratio|48 rays|default: |plain: |[0-9]+x[0-9]+, reference)' |
+      sed 's/^ray /slab, ray /; s/^48 rays/fogmap transmittance, 48 rays/; s/^default: /sun single scattering vs quadrature (stratified, residual tracking): /; s/^plain: /the same, plain delta and ratio tracking: /; s/^\([0-9]*x[0-9]*\), reference/deterministic against the reference on the sample scene, \1: reference/; s/^/- Monte Carlo reference, /'
   fi
   echo
   # Whole pipeline: frames/s from --stats (the frame loop's wall time: the
