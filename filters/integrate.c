@@ -53,6 +53,9 @@ const fp_option_t fp_integrate_options[] = {
       NULL, 0 },
     { "fog-offset", 0, FP_OPT_VEC, FOG(offset), 3, 3, "0,0,0", -1e9, 1e9, NULL, "X,Y,Z",
       "move the fog (fogmap, height profile and box) in the world", NULL, 0 },
+    { "sky", 0, FP_OPT_ENUM, FOG(sky), 0, 0, "fog", 0, 0, "fog|keep", "fog|keep",
+      "pixels with no geometry (sky depth): fog to the end of the fog, meeting the horizon "
+      "without a seam (fog), or left exactly as they are (keep)", NULL, 0 },
     { "fog-rotate", 0, FP_OPT_REAL, FOG(rotate), 0, 0, "0", -36000, 36000, NULL, "DEG",
       "turn the fog about the vertical axis through --fog-offset, degrees", NULL, 0 },
     FP_OPT_END

@@ -188,6 +188,11 @@ const fp_option_t fp_scatter_options[] = {
       NULL, "N",
       "segments along each view ray for the sun's in-scattering (each integrated exactly "
       "for extinction, the light linear within it)", NULL, 0 },
+    { "interleave", 0, FP_OPT_VEC, LI(interleave), 2, 2, "1,1", 1, 16, NULL, "N,M",
+      "interleaved sampling (Keller and Heidrich 2001): the samples along each ray shift by "
+      "one of N x M offsets, a tile repeated over the frame (the same every frame), for the "
+      "depth-aware blur (--blur) to reconstruct: fewer --scatter-steps, no banding",
+      NULL, 0 },
     { "light-panels", 0, FP_OPT_INT, LI(light_panels), 0, 0, "8", 1, 64, NULL, "N",
       "Gauss-Legendre panels (4 nodes each), equiangular around each local light", NULL, 0 },
     FP_OPT_END
@@ -239,6 +244,8 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
                      : l->self_shadow == FP_SELF_SHADOW_MAP ? FP_SELF_MAP : FP_SELF_EXACT;
     lt[FP_LT_STEPS] = l->scatter_steps;
     lt[FP_LT_PANELS] = l->light_panels;
+    lt[FP_LT_INTERLEAVE] = floor(l->interleave[0]);
+    lt[FP_LT_INTERLEAVE + 1] = floor(l->interleave[1]);
     lt[FP_LT_NLIGHTS] = l->num_lights;
     lt[FP_LT_SM_RADIUS] = l->shadow_filter;
     lt[FP_LT_SS_STEPS] = l->screen_shadow[0];
@@ -451,14 +458,23 @@ void fp_scatter_release(fp_scatter_data_t *d)
     d->smap = d->grid = NULL;
 }
 
-double fp_scatter_ray(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
-                      const fp_view_t *v, const float *view_packed, const float *depth,
-                      const double o[3], const double dir[3], double len, double S[3])
+double fp_scatter_ray_at(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                         const fp_view_t *v, const float *view_packed, const float *depth,
+                         const double o[3], const double dir[3], double len, double offset,
+                         double S[3])
 {
     const fp_fog_tables_t *t = fog->tables;
     return fp_scatter_ray_core(fog->fp, TABLES(t), d->lt, d->smap ? d->smap : no_map,
                                d->grid ? d->grid : no_map, view_packed, depth, v->width,
-                               v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, S);
+                               v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, offset,
+                               S);
+}
+
+double fp_scatter_ray(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                      const fp_view_t *v, const float *view_packed, const float *depth,
+                      const double o[3], const double dir[3], double len, double S[3])
+{
+    return fp_scatter_ray_at(d, fog, v, view_packed, depth, o, dir, len, 0, S);
 }
 
 /* The self-shadow grid on the CPU (exact optical depth at each node). */
@@ -505,7 +521,8 @@ int fp_scatter_process(const fp_scatter_data_t *d, const fp_integrate_data_t *fo
             size_t i = (size_t)y * v->width + x;
             double dir[3], len, S[3];
             fp_view_ray(v, x, y, depth[i], dir, &len);
-            double tau = fp_scatter_ray(d, fog, v, view, depth, v->origin, dir, len, S);
+            double tau = fp_scatter_ray_at(d, fog, v, view, depth, v->origin, dir, len,
+                                           fp_interleave_offset(d->lt, x, y), S);
             for (int c = 0; c < 3; c++)
                 out[4 * i + c] = (float)S[c];
             out[4 * i + 3] = (float)tau;

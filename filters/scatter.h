@@ -47,6 +47,13 @@ double fp_scatter_ray(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
                       const fp_view_t *v, const float *view_packed, const float *depth,
                       const double o[3], const double dir[3], double len, double S[3]);
 
+/* The same with the samples along the ray shifted by `offset` of a
+ * segment (interleaved sampling, fp_interleave_offset). */
+double fp_scatter_ray_at(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                         const fp_view_t *v, const float *view_packed, const float *depth,
+                         const double o[3], const double dir[3], double len, double offset,
+                         double S[3]);
+
 /* CPU reference for a whole frame: fog[4*i] = (S.r, S.g, S.b, tau). */
 int fp_scatter_process(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                        const fp_view_t *v, const float *depth, float *out);

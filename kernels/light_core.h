@@ -55,6 +55,7 @@
 #define FP_LT_OD_STOP 73     /* the view ray's in-scatter ends where its optical depth exceeds this */
 #define FP_LT_SEG_OD 74     /* largest optical depth of one segment of the view ray */
 #define FP_LT_SEG_JUMP 75   /* largest change of the light over one segment, weighted */
+#define FP_LT_INTERLEAVE 76 /* 2: n x m pattern of per-pixel sample offsets (1, 1: off) */
 #define FP_LT_LIGHTS 80      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
 #define FP_LT_LIGHT_STRIDE 16
 #define FP_LT_MAX_LIGHTS 8
@@ -260,6 +261,33 @@ FP_FN fp_real fp_sun_tau(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
     if (od < (fp_real)-0.5)
         od = fp_fog_od(fp, lvi, lvf, coef, occ, x, y, z, l[0], l[1], l[2], FP_INF, 0);
     return exp(-od);
+}
+
+/* Interleaved sampling (Keller and Heidrich 2001): pixel (x, y)'s offset
+ * of the samples along its ray, in [0, 1) of a segment, from an n x m
+ * tile of evenly spread offsets; the same every frame.  0 when off. */
+FP_FN fp_real fp_interleave_offset(FP_CONSTANT const fp_real *lt, int x, int y)
+{
+    int n = (int)lt[FP_LT_INTERLEAVE], m = (int)lt[FP_LT_INTERLEAVE + 1];
+    if (n * m <= 1)
+        return 0;
+    /* Rows of the tile visit the offsets in a shuffled order (a stride
+     * coprime to n m), so neighbours in both directions differ. */
+    int k = (x % n) + n * (y % m), nm = n * m;
+    int stride = 1;
+    for (int s = nm / 2 + 1; s < nm; s++) {
+        int a = s, b = nm;
+        while (b) {
+            int t = a % b;
+            a = b;
+            b = t;
+        }
+        if (a == 1) {
+            stride = s;
+            break;
+        }
+    }
+    return ((fp_real)((k * stride) % nm) + (fp_real)0.5) / nm;
 }
 
 /* A spot's cone: 1 inside the inner cone, 0 outside the outer, smooth

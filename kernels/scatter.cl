@@ -22,7 +22,8 @@ __kernel void scatter_fog(__global const float *depth, __global float4 *fog_out,
     float3 o = fp_view_origin(view);
     float S[3];
     float tau = fp_scatter_ray_core(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width,
-                               height, o.x, o.y, o.z, dir.x, dir.y, dir.z, len, S);
+                                    height, o.x, o.y, o.z, dir.x, dir.y, dir.z, len,
+                                    fp_interleave_offset(lt, x, y), S);
     fog_out[i] = (float4)(S[0], S[1], S[2], tau);
 }
 

@@ -92,7 +92,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
                              FP_GLOBAL const float *smap, FP_GLOBAL const float *grid,
                              FP_CONSTANT const float *view, FP_GLOBAL const float *depth,
                              int width, int height, fp_real ox, fp_real oy, fp_real oz,
-                             fp_real dx, fp_real dy, fp_real dz, fp_real len, fp_real *S)
+                             fp_real dx, fp_real dy, fp_real dz, fp_real len, fp_real offset,
+                             fp_real *S)
 {
     S[0] = S[1] = S[2] = 0;
     fp_real od_total = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, len, 0);
@@ -124,7 +125,10 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     fp_real ph_sun = fp_phase(kind, ph[1], ph[2], dx * l[0] + dy * l[1] + dz * l[2]);
     int n = (int)lt[FP_LT_STEPS];
     n = n < 1 ? 1 : n > FP_SCATTER_MAX_STEPS_ / 2 ? FP_SCATTER_MAX_STEPS_ / 2 : n;
-    fp_real h0 = (tb - ta) / n, h = h0, xmax = lt[FP_LT_SEG_OD];
+    /* Interleaved sampling: the first segment is `offset` of one long,
+     * which shifts every later end along the ray. */
+    fp_real h0 = (tb - ta) / n, xmax = lt[FP_LT_SEG_OD];
+    fp_real h = offset > 0 ? offset * h0 : h0;
     /* Segment ends and the optical depth from the camera there (for the
      * lights).  Segments are at most (tb - ta) / n long and hold at most
      * xmax of optical depth (halved until they do, down to h0 / 256), so

@@ -16,6 +16,7 @@ extern const fp_option_t fp_integrate_options[];
 extern const fp_option_t fp_fogmap_options[];
 extern const fp_option_t fp_scatter_options[];
 extern const fp_option_t fp_reference_options[];
+extern const fp_option_t fp_buffers_options[];
 extern const fp_option_t fp_animate_options[];
 extern const fp_option_t fp_color_options[];
 extern const fp_option_t fp_aov_options[];
@@ -48,6 +49,7 @@ const fp_option_group_t fp_option_groups[] = {
     { "Fogmap (wavelet fog)", fp_fogmap_options },
     { "Light (sun, local lights, shadows)", fp_scatter_options },
     { "Monte Carlo reference", fp_reference_options },
+    { "Fog buffers (blur, resolution)", fp_buffers_options },
     { "Animation", fp_animate_options },
     { "Color (OpenColorIO)", fp_color_options },
     { "Fog layers (AOVs)", fp_aov_options },

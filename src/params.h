@@ -47,6 +47,7 @@ typedef struct fp_fog_params_t {
     double box[6];        /* X0,Y0,Z0,X1,Y1,Z1, fog frame */
     double offset[3];
     double rotate;        /* degrees about the vertical */
+    int sky;              /* 0: fog the sky too, 1: keep it as it is */
 } fp_fog_params_t;
 
 enum { FP_BASIS_HAAR = 0, FP_BASIS_LINEAR, FP_BASIS_QUADRATIC, FP_BASIS_CUBIC };
@@ -118,6 +119,7 @@ typedef struct fp_light_params_t {
     double self_shadow_grid[3];
     int scatter_steps;
     int light_panels;
+    double interleave[2]; /* N x M pattern of per-pixel sample offsets */
 } fp_light_params_t;
 
 typedef struct fp_color_params_t {  /* filters/color.c */
@@ -147,6 +149,20 @@ typedef struct fp_reference_params_t {
     int bounces;          /* scattering events after the first (0: single scattering) */
 } fp_reference_params_t;
 
+/* Fog buffers (filters/buffers.c): depth-aware bilateral blur of the fog
+ * layer and reduced-resolution fog with joint bilateral upsampling. */
+enum { FP_BLUR_OFF = 0, FP_BLUR_BILATERAL = 1 };
+typedef struct fp_buffers_params_t {
+    int blur;             /* FP_BLUR_* */
+    int radius;           /* spatial radius, pixels */
+    double sigma;         /* spatial sigma, pixels; 0: radius / 2 */
+    double range;         /* range sigma, relative difference of guide distance */
+    int iterations;
+    double falloff;       /* no blur within this distance of the camera, full at twice it */
+    int separable;        /* 1: horizontal then vertical passes; 0: full 2D kernel */
+    int resolution;       /* fog computed every `resolution` pixels: 1, 2 or 4 */
+} fp_buffers_params_t;
+
 typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     int pipeline;         /* 1: read, compute and write on three threads */
     int skip_existing;    /* leave frames whose output exists alone */
@@ -174,6 +190,7 @@ typedef struct fp_params_t {
     fp_preview_params_t preview;
     fp_run_params_t run;
     fp_reference_params_t reference;
+    fp_buffers_params_t buffers;
     fp_cmd_params_t cmd;
     /* Names of the options the user gave (CLI or preset), for "was this
      * set?" questions such as camera overrides. */

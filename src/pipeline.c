@@ -11,6 +11,7 @@
 #include "frameloop.h"
 #include "integrate.h"
 #include "scatter.h"
+#include "buffers.h"
 #include "reference.h"
 #include "options.h"
 #include "seq.h"
@@ -89,6 +90,8 @@ typedef struct run_t {
     fp_scatter_cl_t scl;
     fp_reference_cl_t rcl;           /* --integrator reference */
     int reference;
+    fp_buffers_cl_t bcl;             /* --blur, --fog-resolution */
+    int buffers;
     fp_fogmap_stage_t fogmap;
     int use_cl;
     /* The frame loop (src/frameloop.h).  The reader and writer threads only
@@ -193,6 +196,29 @@ static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
     return rc;
 }
 
+/* The fog layer of a view (the frame's, or its strided sub-view for
+ * --fog-resolution): the Monte Carlo reference, light in the fog, or the
+ * extinction with ambient fog alone. */
+static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, float *fog, long frame)
+{
+    fp_params_t *p = r->p;
+    int rc;
+    if (r->reference || r->light.active) {
+        /* This frame's shadow map and projection. */
+        if ((rc = fp_scatter_frame(p, &r->light, &r->fog, view, depth, frame)))
+            return rc;
+        if (r->reference)
+            return r->use_cl ? fp_reference_process_cl(&r->rcl, p, &r->light, &r->fog, view, depth,
+                                                       fog)
+                             : fp_reference_process(p, &r->light, &r->fog, view, depth, fog);
+        return r->use_cl ? fp_scatter_process_cl(&r->scl, &r->icl, &r->light, &r->fog, view,
+                                                 depth, fog)
+                         : fp_scatter_process(&r->light, &r->fog, view, depth, fog);
+    }
+    return r->use_cl ? fp_integrate_process_cl(&r->icl, &r->fog, view, depth, fog)
+                     : fp_integrate_process(&r->fog, view, depth, fog, NULL);
+}
+
 /* Stage 2, calling thread (it owns the device): fog one decoded frame and
  * composite it in place. */
 static int process_frame(run_t *r, fp_loop_job_t *job)
@@ -233,30 +259,44 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     }
     fs->fog_px = n;
     long suspicious = 0;
-    if (r->reference) {
-        /* The Monte Carlo reference of the same fog and light. */
-        if ((rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, frame)))
-            goto done;
-        for (size_t i = 0; i < n; i++)
-            suspicious += isnan(depth[i]) || depth[i] < 0;
-        rc = r->use_cl ? fp_reference_process_cl(&r->rcl, p, &r->light, &r->fog, &view, depth, fog)
-                       : fp_reference_process(p, &r->light, &r->fog, &view, depth, fog);
-    } else if (r->light.active) {
-        /* Light in the fog: this frame's shadow map and projection. */
-        if ((rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, frame)))
-            goto done;
-        for (size_t i = 0; i < n; i++)
-            suspicious += isnan(depth[i]) || depth[i] < 0;
-        rc = r->use_cl ? fp_scatter_process_cl(&r->scl, &r->icl, &r->light, &r->fog, &view, depth,
-                                               fog)
-                       : fp_scatter_process(&r->light, &r->fog, &view, depth, fog);
-    } else if (r->use_cl) {
-        for (size_t i = 0; i < n; i++)
-            suspicious += isnan(depth[i]) || depth[i] < 0;
-        rc = fp_integrate_process_cl(&r->icl, &r->fog, &view, depth, fog);
-    } else {
-        rc = fp_integrate_process(&r->fog, &view, depth, fog, &suspicious);
+    for (size_t i = 0; i < n; i++)
+        suspicious += isnan(depth[i]) || depth[i] < 0;
+    /* --fog-resolution 1/F: the fog at every F-th pixel each way (a
+     * strided view: those pixels' own rays and depths), brought back by
+     * joint bilateral upsampling guided by the full-resolution depth; then
+     * the depth-aware blur (filters/buffers.h). */
+    int res = p->buffers.resolution > 1 ? p->buffers.resolution : 1;
+    float *dist = NULL, *lo = NULL, *lo_depth = NULL;
+    fp_view_t sub = view;
+    if (r->buffers) {
+        dist = malloc(n * sizeof *dist);
+        if (res > 1) {
+            fp_view_subsample(&view, res, &sub);
+            size_t ns = (size_t)sub.width * sub.height;
+            lo = malloc(ns * 4 * sizeof *lo);
+            lo_depth = malloc(ns * sizeof *lo_depth);
+        }
+        if (!dist || (res > 1 && (!lo || !lo_depth))) {
+            rc = fp_error("%s: frame %ld: out of memory", in_name, frame);
+            goto buffers_done;
+        }
+        fp_buffers_guide(&view, depth, dist);
+        if (res > 1)
+            fp_depth_subsample(depth, info->width, info->height, res, lo_depth);
     }
+    rc = compute_fog(r, &sub, res > 1 ? lo_depth : depth, res > 1 ? lo : fog, frame);
+    if (rc == FP_OK && res > 1)
+        rc = r->use_cl ? fp_upsample_cl(&r->bcl, res, p->buffers.range, info->width, info->height,
+                                        dist, lo, fog)
+                       : fp_upsample(res, p->buffers.range, info->width, info->height, dist, lo, fog);
+    if (rc == FP_OK && p->buffers.blur != FP_BLUR_OFF)
+        rc = r->use_cl ? fp_buffers_blur_cl(&r->bcl, &p->buffers, info->width, info->height, dist,
+                                            fog)
+                       : fp_buffers_blur(&p->buffers, info->width, info->height, dist, fog);
+buffers_done:
+    free(dist);
+    free(lo);
+    free(lo_depth);
     if (rc) {
         fp_error("%s: frame %ld: fog computation failed", in_name, frame);
         goto done;
@@ -264,6 +304,16 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     if (suspicious)
         fp_warn("%s: frame %ld: %ld pixels with NaN or negative depth treated as sky",
                 in_name, frame, suspicious);
+    if (p->fog.sky == 1) {
+        /* --sky keep: no fog where there is no geometry. */
+        for (size_t i = 0; i < n; i++) {
+            int s;
+            if (fp_view_is_sky(&view, depth[i], &s)) {
+                fog[4 * i] = fog[4 * i + 1] = fog[4 * i + 2] = 0;
+                fog[4 * i + 3] = 1;
+            }
+        }
+    }
     double t_composite = fp_now_ms();
     job->ms[FP_T_FOG] = t_composite - t0 - job->ms[FP_T_FOGMAP];
     /* Plate input -> working space, composite and fog layers there, then
@@ -380,6 +430,7 @@ static int setup(run_t *r)
     if (rc || (rc = fp_scatter_commit(p, &r->light)))
         return rc;
     r->reference = p->fogmap.integrator == FP_INTEGRATOR_REFERENCE;
+    r->buffers = fp_buffers_active(p);
     r->use_cl = !p->io.cpu;
     return FP_OK;
 }
@@ -397,7 +448,8 @@ static int open_device(run_t *r)
         fp_info("OpenCL device: %s", fp_cl_device_label(r->cl));
         if (fp_integrate_cl_init(r->cl, &r->icl) ||
             (r->light.active && fp_scatter_cl_init(r->cl, &r->scl)) ||
-            (r->reference && fp_reference_cl_init(r->cl, &r->rcl)))
+            (r->reference && fp_reference_cl_init(r->cl, &r->rcl)) ||
+            (r->buffers && fp_buffers_cl_init(r->cl, &r->bcl)))
             return FP_ERR;
     }
     int active;
@@ -644,6 +696,8 @@ int fp_pipeline_run(fp_params_t *p)
         fp_scatter_cl_release(&r.scl);
         if (r.reference)
             fp_reference_cl_release(&r.rcl);
+        if (r.buffers)
+            fp_buffers_cl_release(&r.bcl);
         fp_integrate_cl_release(&r.icl);
         fp_cl_close(r.cl);
     }

@@ -115,6 +115,16 @@ fails "missing fogmap" 1 "nofog.png" "$T/o9.exr" "$FOGPIPE" --fogmap "$T/nofog.p
 fails "bad --fog-rect" 2 "fog-rect" "$T/o10.exr" "$FOGPIPE" --fogmap "$FMAP" --fog-rect 5,0,1,1 -i "$S/scene.0001.exr" -o "$T/o10.exr"
 fails "unknown basis" 2 "basis.*expected haar.linear" - "$FOGPIPE" --basis septic
 
+# --sky keep: a frame of sky only (depth 1e30) comes out as it went in,
+# with the sun lighting the fog; --sky fog (the default) fogs it.
+"$OIIOTOOL" "$S/scene.0001.exr" --ch "R,G,B,A,Z=1e30" -o "$T/sky.exr"
+check "--sky keep leaves sky pixels untouched" sh -c '
+  "$FOGPIPE" --float --sky keep --sun 0,1,1 --density 0.05 -i "$1" -o "$2/sky-keep.exr" &&
+  "$IDIFF" -q -fail 0 "$1" "$2/sky-keep.exr"' sh "$T/sky.exr" "$T"
+check "--sky fog fogs them" sh -c '
+  "$FOGPIPE" --float --sun 0,1,1 --density 0.05 -i "$1" -o "$2/sky-fog.exr" &&
+  ! "$IDIFF" -q -fail 0.01 "$1" "$2/sky-fog.exr"' sh "$T/sky.exr" "$T"
+
 # make install with DESTDIR: the installed binary runs from anywhere.
 if [ -n "${FP_BUILDDIR:-}" ] && env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install DESTDIR="$T/dest" prefix=/opt/fp >"$T/install.txt" 2>&1; then
   check "installed fogpipe runs from / with embedded kernels" sh -c 'cd / &&

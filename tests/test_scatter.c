@@ -1083,11 +1083,11 @@ static void test_opencl_parity(void **state)
     static const char *const extra[3][8] = {
         { "haze-height", "0,20", "shadow-map", "-", "self-shadow", "exact", NULL },
         { "haze-height", "0,20", "shadows", "screen", "self-shadow", "map", NULL },
-        { "shadows", "screen", "self-shadow", "map", NULL },
+        { "shadows", "screen", "self-shadow", "map", "interleave", "4,3", NULL },
     };
     static const char *const names[3] = {
         "fogmap, sun + shadow map, point + spot, hg:0.6",
-        "fogmap, screen-space shadows, self-shadow map",
+        "fogmap, screen-space shadows, self-shadow map, interleave 4x3",
         "the same in a haze without top (optical depth to the sun +inf)" };
     fp_cl_t *cl = NULL;
     if (!sample_scene())
@@ -1544,6 +1544,70 @@ static void test_options(void **state)
     rig_close(&r);
 }
 
+/* Interleaved sampling: an n x m tile of n m distinct offsets in (0, 1),
+ * evenly spread (their mean is 1/2), repeating over the frame, none when
+ * off; and it moves the samples: a frame with few segments changes, its
+ * tile mean stays near the uninterleaved result. */
+static void test_interleave(void **state)
+{
+    (void)state;
+    static const int tiles[][2] = { { 1, 1 }, { 2, 2 }, { 4, 4 }, { 3, 5 }, { 8, 1 } };
+    for (size_t t = 0; t < FP_ARRAY_LEN(tiles); t++) {
+        char spec[32];
+        snprintf(spec, sizeof spec, "%d,%d", tiles[t][0], tiles[t][1]);
+        const char *opts[] = { "sun", "0,1,1", "interleave", spec, NULL };
+        rig_t r;
+        rig_open(&r, opts);
+        int n = tiles[t][0], m = tiles[t][1], seen[256] = { 0 };
+        double sum = 0;
+        for (int y = 0; y < m; y++)
+            for (int x = 0; x < n; x++) {
+                double o = fp_interleave_offset(r.sd.lt, x, y);
+                if (n * m == 1) {
+                    assert_true(o == 0);
+                    continue;
+                }
+                assert_true(o > 0 && o < 1);
+                int k = (int)floor(o * n * m);
+                assert_int_equal(seen[k], 0);
+                seen[k] = 1;
+                sum += o;
+                /* The tile repeats. */
+                assert_true(fp_interleave_offset(r.sd.lt, x + 3 * n, y + 2 * m) == o);
+            }
+        if (n * m > 1)
+            assert_true(fabs(sum / (n * m) - 0.5) < 1e-12);
+        rig_close(&r);
+    }
+    /* Few segments along a ray through a shadowless sun-lit exponential fog:
+     * the mean over a tile of offsets is closer to the converged answer
+     * than most single offsets are. */
+    const char *opts[] = { "density", "0.2", "height", "0,4", "sun", "0.3,0.4,1",
+                           "phase", "hg:0.5", "scatter-steps", "2", "fog-color", "0,0,0", NULL };
+    const char *conv[] = { "density", "0.2", "height", "0,4", "sun", "0.3,0.4,1",
+                           "phase", "hg:0.5", "scatter-steps", "128", "fog-color", "0,0,0", NULL };
+    rig_t r, rc;
+    rig_open(&r, opts);
+    rig_open(&rc, conv);
+    fp_view_t nov;
+    memset(&nov, 0, sizeof nov);
+    double o[3] = { 0, 1, 0 }, d[3] = { 0.6, 0.1, 0.8 }, S[3], Sc[3], mean = 0;
+    unit(d);
+    fp_scatter_ray(&rc.sd, &rc.fog, &nov, NULL, NULL, o, d, 40, Sc);
+    double worst = 0;
+    for (int k = 0; k < 16; k++) {
+        fp_scatter_ray_at(&r.sd, &r.fog, &nov, NULL, NULL, o, d, 40, (k + 0.5) / 16, S);
+        mean += S[0] / 16;
+        worst = fmax(worst, fabs(S[0] - Sc[0]));
+    }
+    print_message("interleaved sampling, 2 segments: worst single offset |dS| %.3g, mean of 16 "
+                  "offsets |dS| %.3g (S %.6g)\n", worst, fabs(mean - Sc[0]), Sc[0]);
+    assert_true(worst > 0);
+    assert_true(fabs(mean - Sc[0]) <= worst);
+    rig_close(&r);
+    rig_close(&rc);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -1560,6 +1624,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_shadow_map),
         cmocka_unit_test(test_screen_shadows),
         cmocka_unit_test(test_options),
+        cmocka_unit_test(test_interleave),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     remove_scene();
