@@ -101,24 +101,34 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     fp_real ta, tb;
     if (!(od_total > 0) || !fp_fog_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb))
         return tau;
+    fp_real albedo = lt[FP_LT_ALBEDO];
+    if (lt[FP_LT_SUN_ON] == 0 && lt[FP_LT_NLIGHTS] == 0) {
+        /* Ambient light alone: the closed form (seed 000 eq. 4). */
+        for (int c = 0; c < 3; c++)
+            S[c] = albedo * -expm1(-od_total) * lt[FP_LT_AMB + c];
+        return tau;
+    }
     fp_real od_stop = lt[FP_LT_OD_STOP];
-    if (isinf(tb)) {
-        /* Unbounded: go as far as the fog still matters (its optical depth
-         * from ta passes od_stop, or nearly all of it is behind). */
+    {
+        /* Go only as far as the fog still matters: until its optical depth
+         * from ta passes od_stop, or nearly all of it is behind (a sky
+         * ray, or geometry far beyond the fog), found by doubling. */
+        fp_real span = tb - ta;
         fp_real step = fmax((fp_real)1 / fmax(fp[FP_F_SIGMA] + fp[FP_F_HAZE], (fp_real)1e-12),
                             (fp_real)1e-3);
-        fp_real od_before = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0);
-        for (int k = 0; k < 80; k++) {
-            fp_real od = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta + step, 0);
-            if (od - od_before >= od_stop ||
-                (isfinite(od_total) && od_total - od <= (fp_real)1e-4 * od_total) ||
-                step >= fp[FP_F_CAP])
-                break;
-            step *= 2;
+        if (step < span) {
+            fp_real od_before = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0);
+            for (int k = 0; k < 80 && step < span && step < fp[FP_F_CAP]; k++) {
+                fp_real od =
+                    fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta + step, 0);
+                if (od - od_before >= od_stop ||
+                    (isfinite(od_total) && od_total - od <= (fp_real)1e-4 * od_total))
+                    break;
+                step *= 2;
+            }
+            tb = ta + fmin(fmin(step, fp[FP_F_CAP]), span);
         }
-        tb = ta + fmin(step, fp[FP_F_CAP]);
     }
-    fp_real albedo = lt[FP_LT_ALBEDO];
     FP_CONSTANT const fp_real *ph = lt + FP_LT_PHASE;
     FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
     int kind = (int)ph[0];

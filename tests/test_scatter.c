@@ -1608,6 +1608,44 @@ static void test_interleave(void **state)
     rig_close(&rc);
 }
 
+/* The sky meets the horizon without a seam: a sky ray's fog equals the
+ * fog of geometry far along the same ray (rays level, rising and
+ * falling, height fog with and without a top, a haze). */
+static void test_sky_seam(void **state)
+{
+    (void)state;
+    static const char *const heights[] = { "0,3", "0,3,15", "0,20" };
+    double worst = 0;
+    for (size_t hi = 0; hi < FP_ARRAY_LEN(heights); hi++) {
+        const char *opts[] = { "density", "0.05", "height", heights[hi], "haze", "0.001",
+                               "haze-height", "0,50", "sun", "-0.4,0.35,0.6", "phase", "hg:0.6",
+                               "fog-color", "0.2,0.25,0.3", NULL };
+        rig_t r;
+        rig_open(&r, opts);
+        static const double dys[] = { 0, 0.02, 0.3, -0.01 };
+        for (size_t k = 0; k < FP_ARRAY_LEN(dys); k++) {
+            double o[3] = { 0, 1.5, 0 }, d[3] = { 0.3, dys[k], 1 }, Ss[3], Sg[3];
+            unit(d);
+            double ts = ray(&r, o, d, INFINITY, Ss);
+            /* Geometry far away (for a falling ray: where it meets y = -1e4,
+             * deep in fog of optical depth far past the stop). */
+            double far = dys[k] < 0 ? 1e4 / -d[1] : 1e7;
+            double tg = ray(&r, o, d, far, Sg);
+            for (int c = 0; c < 3; c++) {
+                double e = fabs(Ss[c] - Sg[c]) / fmax(Ss[c], 1e-3);
+                worst = fmax(worst, e);
+                if (!(e <= 1e-3))
+                    fail_msg("height %s, dy %g: sky S %.8g, far geometry S %.8g", heights[hi],
+                             dys[k], Ss[c], Sg[c]);
+            }
+            assert_true(fabs(ts - tg) <= 1e-6);
+        }
+        rig_close(&r);
+    }
+    print_message("sky against geometry far along the same ray: max relative difference of S "
+                  "%.3g (tolerance 1e-3)\n", worst);
+}
+
 int main(int argc, char **argv)
 {
     (void)argc;
@@ -1625,6 +1663,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_screen_shadows),
         cmocka_unit_test(test_options),
         cmocka_unit_test(test_interleave),
+        cmocka_unit_test(test_sky_seam),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     remove_scene();
