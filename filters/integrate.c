@@ -119,16 +119,21 @@ int fp_integrate_commit(const fp_params_t *p, fp_integrate_data_t *d)
 /* An empty table set for fog without a fogmap (the kernel still takes
  * buffers). */
 static const int no_lvi[FP_LEVEL_TABLE * 8];
-static const double no_lvf[FP_LEVEL_TABLE * 4];
 static const float no_coef[1];
 static const unsigned char no_occ[1];
+static const fp_fog_tables_t no_tables = { .coef = (float *)no_coef, .ncoef = 1,
+                                           .occ = (unsigned char *)no_occ, .nocc = 1 };
+
+const fp_fog_tables_t *fp_fog_tables_or_empty(const fp_fog_tables_t *t)
+{
+    return t ? t : &no_tables;
+}
 
 double fp_integrate_optical_depth(const fp_integrate_data_t *d, const double o[3],
                                   const double dir[3], double len, double jitter)
 {
-    const fp_fog_tables_t *t = d->tables;
-    return fp_fog_od(d->fp, t ? t->lvi : no_lvi, t ? t->lvf : no_lvf, t ? t->coef : no_coef,
-                     t ? t->occ : no_occ, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, jitter);
+    const fp_fog_tables_t *t = fp_fog_tables_or_empty(d->tables);
+    return fp_fog_od(d->fp, FP_TABLES(t), o[0], o[1], o[2], dir[0], dir[1], dir[2], len, jitter);
 }
 
 float fp_integrate_jitter(int x, int y)

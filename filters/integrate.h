@@ -28,6 +28,13 @@ typedef struct fp_fog_tables_t {
                                              never mistaken for another's */
 } fp_fog_tables_t;
 
+/* The tables, or an empty set for fog without a fogmap (the shared kernel
+ * code and the device buffers take pointers either way), and the
+ * arguments the kernels' C versions take. */
+const fp_fog_tables_t *fp_fog_tables_or_empty(const fp_fog_tables_t *t);
+#define FP_TABLES3(t) (t)->lvi, (t)->lvf, (t)->coef
+#define FP_TABLES(t) FP_TABLES3(t), (t)->occ
+
 /* Derived once per run from the parameters (darktable's "commit"). */
 typedef struct fp_integrate_data_t {
     double fp[FP_F_COUNT_];               /* FP_F_* parameters */

@@ -37,13 +37,10 @@ const fp_option_t fp_reference_options[] = {
  * float. */
 #define FP_REF_BATCH 256
 
-static const int no_lvi[FP_LEVEL_TABLE * 8];
-static const double no_lvf[FP_LEVEL_TABLE * 4];
-static const float no_coef[1];
 static const float no_map[1] = { INFINITY };
 static const float no_grid[2] = { 0, 0 };
 
-#define TABLES(t) (t) ? (t)->lvi : no_lvi, (t) ? (t)->lvf : no_lvf, (t) ? (t)->coef : no_coef
+#define TABLES(t) FP_TABLES3(fp_fog_tables_or_empty(t))
 
 /* ------------------------------------------------------------ the grid */
 
@@ -651,7 +648,7 @@ int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
         upload_reals(s, s->rp, g.rp, FP_RP_COUNT, "reference: upload grid parameters") ||
         fp_cl_check(clEnqueueWriteBuffer(q, s->lvi, CL_TRUE, 0,
                                          FP_LEVEL_TABLE * FP_LI_STRIDE * sizeof(int),
-                                         t ? t->lvi : no_lvi, 0, NULL, NULL),
+                                         fp_fog_tables_or_empty(t)->lvi, 0, NULL, NULL),
                     "reference: upload level table") ||
         fp_cl_check(clEnqueueWriteBuffer(q, s->lvf, CL_TRUE, 0, sizeof lvf, lvf, 0, NULL, NULL),
                     "reference: upload level table") ||
@@ -665,7 +662,7 @@ int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
     unsigned long serial = t ? t->serial : 0;
     if (!s->coef || s->tables != serial) {
         size_t nc = t ? t->ncoef : 1;
-        if (upload(s, &s->coef, &s->coef_n, t ? t->coef : no_coef, nc * sizeof(float),
+        if (upload(s, &s->coef, &s->coef_n, fp_fog_tables_or_empty(t)->coef, nc * sizeof(float),
                    "reference: fogmap coefficients"))
             goto done;
         s->tables = serial;

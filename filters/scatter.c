@@ -371,15 +371,9 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     return FP_OK;
 }
 
-static const int no_lvi[FP_LEVEL_TABLE * 8];
-static const double no_lvf[FP_LEVEL_TABLE * 4];
-static const float no_coef[1];
-static const unsigned char no_occ[1];
 static const float no_map[1] = { INFINITY };
 
-#define TABLES(t)                                                                      \
-    (t) ? (t)->lvi : no_lvi, (t) ? (t)->lvf : no_lvf, (t) ? (t)->coef : no_coef,       \
-        (t) ? (t)->occ : no_occ
+#define TABLES(t) FP_TABLES(fp_fog_tables_or_empty(t))
 
 /* The self-shadow grid's box: the camera and the stretch of every 8th
  * pixel's ray (each way) that holds fog, slightly enlarged. */

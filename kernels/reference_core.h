@@ -122,46 +122,6 @@ FP_FN fp_real fp_ref_profile(fp_real Y0, fp_real H, fp_real TOP, fp_real y0, fp_
     return sum;
 }
 
-/* Where along o + t d, t >= 0, the main fog can be non-zero: its box, below
- * its top, and within the fogmap's clip rectangle when it does not wrap
- * (the same clipping as fp_fogmap_od).  0 when nowhere. */
-FP_FN int fp_ref_main_span(FP_CONSTANT const fp_real *fp, fp_real ox, fp_real oy, fp_real oz,
-                           fp_real dx, fp_real dy, fp_real dz, fp_real *ta, fp_real *tb)
-{
-    fp_real a = 0, b = FP_INF;
-    if (!(fp[FP_F_SIGMA] > 0))
-        return 0;
-    fp_real c = fp[FP_F_COS], s = fp[FP_F_SIN];
-    fp_real px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
-    fp_real qx = c * px - s * pz, qz = s * px + c * pz;
-    fp_real ex = c * dx - s * dz, ez = s * dx + c * dz;
-    fp_clip(qx, ex, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a, &b);
-    fp_clip(py, dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
-    fp_clip(qz, ez, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], &a, &b);
-    fp_clip(py, dy, -FP_INF, fp[FP_F_TOP], &a, &b);
-    if (fp[FP_F_HAS_MAP] != 0 && (int)fp[FP_F_WRAP] == 0) {
-        fp_clip((qx - fp[FP_F_A0]) * fp[FP_F_USCALE] + fp[FP_F_PAD_X0], ex * fp[FP_F_USCALE],
-                fp[FP_F_CLIP], fp[FP_F_CLIP + 1], &a, &b);
-        fp_clip((qz - fp[FP_F_B0]) * fp[FP_F_VSCALE] + fp[FP_F_PAD_Y0], ez * fp[FP_F_VSCALE],
-                fp[FP_F_CLIP + 2], fp[FP_F_CLIP + 3], &a, &b);
-    }
-    *ta = a;
-    *tb = b;
-    return b > a;
-}
-
-FP_FN int fp_ref_haze_span(FP_CONSTANT const fp_real *fp, fp_real oy, fp_real dy, fp_real *ta,
-                           fp_real *tb)
-{
-    fp_real a = 0, b = FP_INF;
-    if (!(fp[FP_F_HAZE] > 0))
-        return 0;
-    fp_clip(oy, dy, -FP_INF, fp[FP_F_HAZE + 3], &a, &b);
-    *ta = a;
-    *tb = b;
-    return b > a;
-}
-
 /* Where the fog ends along o + t d within [0, len]: the end of the main
  * fog's and the haze's stretches; an unbounded stretch ends where its
  * height profile has died out (40 scale heights up, as fp_fogmap_od), or
@@ -171,7 +131,7 @@ FP_FN fp_real fp_ref_fog_end(FP_CONSTANT const fp_real *fp, fp_real ox, fp_real 
                              fp_real dx, fp_real dy, fp_real dz, fp_real len)
 {
     fp_real end = -FP_INF, a, b;
-    if (fp_ref_main_span(fp, ox, oy, oz, dx, dy, dz, &a, &b)) {
+    if (fp_main_span(fp, ox, oy, oz, dx, dy, dz, FP_INF, &a, &b)) {
         if (isinf(b)) {
             if (dy > 0 && isfinite(fp[FP_F_H]))
                 b = fmax(a, (fp[FP_F_Y0] + 40 * fp[FP_F_H] - (oy - fp[FP_F_OFF + 1])) / dy);
@@ -180,7 +140,7 @@ FP_FN fp_real fp_ref_fog_end(FP_CONSTANT const fp_real *fp, fp_real ox, fp_real 
         }
         end = fmax(end, b);
     }
-    if (fp_ref_haze_span(fp, oy, dy, &a, &b)) {
+    if (fp_haze_span(fp, oy, dy, FP_INF, &a, &b)) {
         if (isinf(b) && dy > 0 && isfinite(fp[FP_F_HAZE + 2]))
             b = fmax(a, (fp[FP_F_HAZE + 1] + 40 * fp[FP_F_HAZE + 2] - oy) / dy);
         end = fmax(end, b);
@@ -222,8 +182,8 @@ FP_FN void fp_ref_walk_init(fp_ref_walk_t *w, FP_CONSTANT const fp_real *fp,
     w->d[2] = dz;
     w->t = t0;
     w->tend = tend;
-    w->mon = fp_ref_main_span(fp, ox, oy, oz, dx, dy, dz, &w->ma, &w->mb);
-    w->hon = fp_ref_haze_span(fp, oy, dy, &w->ha, &w->hb);
+    w->mon = fp_main_span(fp, ox, oy, oz, dx, dy, dz, FP_INF, &w->ma, &w->mb);
+    w->hon = fp_haze_span(fp, oy, dy, FP_INF, &w->ha, &w->hb);
     fp_real hs = FP_INF, lo = FP_INF, hi = -FP_INF;
     if (w->mon && isfinite(fp[FP_F_H])) {
         hs = fmin(hs, fp[FP_F_H]);

@@ -27,35 +27,14 @@
 FP_FN int fp_fog_span(FP_CONSTANT const fp_real *fp, fp_real ox, fp_real oy, fp_real oz,
                       fp_real dx, fp_real dy, fp_real dz, fp_real len, fp_real *ta, fp_real *tb)
 {
-    fp_real a = 0, b = len, lo = FP_INF, hi = -FP_INF;
-    if (fp[FP_F_SIGMA] > 0) {
-        fp_real c = fp[FP_F_COS], s = fp[FP_F_SIN];
-        fp_real px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
-        fp_real qx = c * px - s * pz, qz = s * px + c * pz;
-        fp_real ex = c * dx - s * dz, ez = s * dx + c * dz;
-        fp_clip(qx, ex, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a, &b);
-        fp_clip(py, dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
-        fp_clip(qz, ez, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], &a, &b);
-        fp_clip(py, dy, -FP_INF, fp[FP_F_TOP], &a, &b);
-        if (fp[FP_F_HAS_MAP] != 0 && (int)fp[FP_F_WRAP] == 0) {
-            fp_clip((qx - fp[FP_F_A0]) * fp[FP_F_USCALE] + fp[FP_F_PAD_X0], ex * fp[FP_F_USCALE],
-                    fp[FP_F_CLIP], fp[FP_F_CLIP + 1], &a, &b);
-            fp_clip((qz - fp[FP_F_B0]) * fp[FP_F_VSCALE] + fp[FP_F_PAD_Y0], ez * fp[FP_F_VSCALE],
-                    fp[FP_F_CLIP + 2], fp[FP_F_CLIP + 3], &a, &b);
-        }
-        if (b > a) {
-            lo = a;
-            hi = b;
-        }
+    fp_real a, b, lo = FP_INF, hi = -FP_INF;
+    if (fp_main_span(fp, ox, oy, oz, dx, dy, dz, len, &a, &b)) {
+        lo = a;
+        hi = b;
     }
-    if (fp[FP_F_HAZE] > 0) {
-        a = 0;
-        b = len;
-        fp_clip(oy, dy, -FP_INF, fp[FP_F_HAZE + 3], &a, &b);
-        if (b > a) {
-            lo = fmin(lo, a);
-            hi = fmax(hi, b);
-        }
+    if (fp_haze_span(fp, oy, dy, len, &a, &b)) {
+        lo = fmin(lo, a);
+        hi = fmax(hi, b);
     }
     *ta = lo;
     *tb = hi;

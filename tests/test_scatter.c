@@ -116,14 +116,8 @@ static double dot3(const double a[3], const double b[3])
 }
 
 /* The fogmap tables as the kernels' C versions take them. */
-static const int no_lvi[FP_LEVEL_TABLE * 8];
-static const double no_lvf[FP_LEVEL_TABLE * 4];
-static const float no_coef[1];
-static const unsigned char no_occ[1];
 static const float no_map[1] = { INFINITY };
-#define TABLES(t)                                                                      \
-    (t) ? (t)->lvi : no_lvi, (t) ? (t)->lvf : no_lvf, (t) ? (t)->coef : no_coef,       \
-        (t) ? (t)->occ : no_occ
+#define TABLES(t) FP_TABLES(fp_fog_tables_or_empty(t))
 
 /* Phase functions written out here (not phase.h's), normalized over the
  * sphere; mu = dot(view direction, direction toward the light). */
