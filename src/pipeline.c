@@ -199,14 +199,10 @@ static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
 /* The fog layer of a view (the frame's, or its strided sub-view for
  * --fog-resolution): the Monte Carlo reference, light in the fog, or the
  * extinction with ambient fog alone. */
-static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, float *fog, long frame)
+static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, float *fog)
 {
     fp_params_t *p = r->p;
-    int rc;
     if (r->reference || r->light.active) {
-        /* This frame's shadow map and projection. */
-        if ((rc = fp_scatter_frame(p, &r->light, &r->fog, view, depth, frame)))
-            return rc;
         if (r->reference)
             return r->use_cl ? fp_reference_process_cl(&r->rcl, p, &r->light, &r->fog, view, depth,
                                                        fog)
@@ -284,7 +280,16 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
         if (res > 1)
             fp_depth_subsample(depth, info->width, info->height, res, lo_depth);
     }
-    rc = compute_fog(r, &sub, res > 1 ? lo_depth : depth, res > 1 ? lo : fog, frame);
+    /* Light in the fog: this frame's shadow map and projection (a bad
+     * shadow map is the user's input: its own one-line message). */
+    if ((r->reference || r->light.active) &&
+        (rc = fp_scatter_frame(p, &r->light, &r->fog, &sub, res > 1 ? lo_depth : depth, frame))) {
+        free(dist);
+        free(lo);
+        free(lo_depth);
+        goto done;
+    }
+    rc = compute_fog(r, &sub, res > 1 ? lo_depth : depth, res > 1 ? lo : fog);
     if (rc == FP_OK && res > 1)
         rc = r->use_cl ? fp_upsample_cl(&r->bcl, res, p->buffers.range, info->width, info->height,
                                         dist, lo, fog)

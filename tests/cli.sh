@@ -125,6 +125,13 @@ check "--sky fog fogs them" sh -c '
   "$FOGPIPE" --float --sun 0,1,1 --density 0.05 -i "$1" -o "$2/sky-fog.exr" &&
   ! "$IDIFF" -q -fail 0.01 "$1" "$2/sky-fog.exr"' sh "$T/sky.exr" "$T"
 
+fails "missing shadow map" 1 "nowhere\.0001\.exr.*frame 1" "$T/o11.exr" "$FOGPIPE" --sun 0,1,1 \
+  --shadow-map "$T/nowhere.####.exr" -i "$S/scene.0001.exr" -o "$T/o11.exr"
+"$OIIOTOOL" --pattern constant:color=5 64x64 1 --chnames Z -d float -o "$T/nomat.0001.exr"
+fails "shadow map without its matrices" 1 "nomat\.0001\.exr.*frame 1.*worldToCamera" "$T/o12.exr" \
+  "$FOGPIPE" --sun 0,1,1 --shadow-map "$T/nomat.####.exr" -i "$S/scene.0001.exr" -o "$T/o12.exr"
+fails "bad --light" 2 "light.*expected point" - "$FOGPIPE" --light lamp:1,2,3
+
 # make install with DESTDIR: the installed binary runs from anywhere.
 if [ -n "${FP_BUILDDIR:-}" ] && env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install DESTDIR="$T/dest" prefix=/opt/fp >"$T/install.txt" 2>&1; then
   check "installed fogpipe runs from / with embedded kernels" sh -c 'cd / &&
