@@ -3,13 +3,7 @@
 #ifndef FP_COMMON_H
 #define FP_COMMON_H
 
-#define FP_VIEW_ORIGIN 0
-#define FP_VIEW_M 3
-#define FP_VIEW_H 12
-#define FP_VIEW_NDC_SCALE 21
-#define FP_VIEW_NDC_OFFSET 23
-#define FP_VIEW_FAR 25
-#define FP_VIEW_DEPTH_KIND 26
+#include "view_layout.h"
 
 #define FP_DEPTH_PLANAR 0
 #define FP_DEPTH_RADIAL 1

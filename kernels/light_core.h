@@ -14,16 +14,7 @@
 
 #include "phase.h"
 
-/* The packed view (fp_view_pack in src/camera.c; kernels/fp_common.h). */
-#ifndef FP_VIEW_ORIGIN
-#define FP_VIEW_ORIGIN 0
-#define FP_VIEW_M 3
-#define FP_VIEW_H 12
-#define FP_VIEW_NDC_SCALE 21
-#define FP_VIEW_NDC_OFFSET 23
-#define FP_VIEW_FAR 25
-#define FP_VIEW_DEPTH_KIND 26
-#endif
+#include "view_layout.h"
 
 /* Layout of the light parameter array (filled by fp_scatter_commit and
  * fp_scatter_frame in filters/scatter.c). */
