@@ -278,26 +278,32 @@ int fp_integrate_cl_prepare(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
 int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth, float *fog)
 {
-    size_t n = (size_t)v->width * v->height;
     if (fp_integrate_cl_prepare(s, d, v, depth))
         return FP_ERR;
-    cl_command_queue q = fp_cl_queue(s->cl);
     cl_float4 color = { { (float)d->fog_color[0], (float)d->fog_color[1],
                           (float)d->fog_color[2], 0 } };
+    if (FP_CL_ARG(s->kernel, 10, color))
+        return FP_ERR;
+    return fp_integrate_cl_launch(s, s->kernel, v, fog, "integrate_fog");
+}
+
+int fp_integrate_cl_launch(fp_integrate_cl_t *s, cl_kernel k, const fp_view_t *v, float *fog,
+                           const char *what)
+{
     cl_int w = v->width, h = v->height;
-    cl_kernel k = s->kernel;
     if (FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->fog) || FP_CL_ARG(k, 2, s->view) ||
         FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) || FP_CL_ARG(k, 5, s->params) ||
         FP_CL_ARG(k, 6, s->lvi) || FP_CL_ARG(k, 7, s->lvf) || FP_CL_ARG(k, 8, s->coef) ||
-        FP_CL_ARG(k, 9, s->occ) || FP_CL_ARG(k, 10, color))
+        FP_CL_ARG(k, 9, s->occ))
         return FP_ERR;
+    cl_command_queue q = fp_cl_queue(s->cl);
     size_t local[2] = { 16, 8 };
     size_t global[2] = { fp_cl_round_up((size_t)w, local[0]), fp_cl_round_up((size_t)h, local[1]) };
-    if (fp_cl_check(clEnqueueNDRangeKernel(q, k, 2, NULL, global, local, 0, NULL, NULL),
-                    "integrate_fog"))
+    if (fp_cl_check(clEnqueueNDRangeKernel(q, k, 2, NULL, global, local, 0, NULL, NULL), what))
         return FP_ERR;
-    return fp_cl_check(clEnqueueReadBuffer(q, s->fog, CL_TRUE, 0, n * 4 * sizeof(float), fog, 0,
-                                           NULL, NULL), "integrate: read fog");
+    return fp_cl_check(clEnqueueReadBuffer(q, s->fog, CL_TRUE, 0,
+                                           (size_t)w * h * 4 * sizeof(float), fog, 0, NULL, NULL),
+                       "read the fog layer");
 }
 
 void fp_integrate_cl_release(fp_integrate_cl_t *s)

@@ -76,6 +76,12 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s);
  * NULL) depth on the device: what every per-pixel fog kernel reads. */
 int fp_integrate_cl_prepare(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth);
+/* Run a per-pixel fog kernel whose first ten arguments are (depth, fog
+ * layer, view, width, height, parameters, lvi, lvf, coef, occ) on the
+ * buffers fp_integrate_cl_prepare filled (the caller sets the others),
+ * and read the fog layer back into `fog`. */
+int fp_integrate_cl_launch(fp_integrate_cl_t *s, cl_kernel k, const fp_view_t *v, float *fog,
+                           const char *what);
 int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth, float *fog);
 void fp_integrate_cl_release(fp_integrate_cl_t *s);

@@ -578,7 +578,6 @@ int fp_scatter_process_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sc
                           const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
                           float *out)
 {
-    size_t n = (size_t)v->width * v->height;
     if (fp_integrate_cl_prepare(ic, fog, v, depth) || upload(s, d))
         return FP_ERR;
     cl_command_queue q = fp_cl_queue(s->cl);
@@ -594,20 +593,9 @@ int fp_scatter_process_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sc
             return FP_ERR;
     }
     cl_kernel k = s->kernel;
-    cl_int w = v->width, h = v->height;
-    if (FP_CL_ARG(k, 0, ic->depth) || FP_CL_ARG(k, 1, ic->fog) || FP_CL_ARG(k, 2, ic->view) ||
-        FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) || FP_CL_ARG(k, 5, ic->params) ||
-        FP_CL_ARG(k, 6, ic->lvi) || FP_CL_ARG(k, 7, ic->lvf) || FP_CL_ARG(k, 8, ic->coef) ||
-        FP_CL_ARG(k, 9, ic->occ) || FP_CL_ARG(k, 10, s->lt) || FP_CL_ARG(k, 11, s->smap) ||
-        FP_CL_ARG(k, 12, s->grid))
+    if (FP_CL_ARG(k, 10, s->lt) || FP_CL_ARG(k, 11, s->smap) || FP_CL_ARG(k, 12, s->grid))
         return FP_ERR;
-    size_t local[2] = { 16, 8 };
-    size_t global[2] = { fp_cl_round_up((size_t)w, local[0]), fp_cl_round_up((size_t)h, local[1]) };
-    if (fp_cl_check(clEnqueueNDRangeKernel(q, k, 2, NULL, global, local, 0, NULL, NULL),
-                    "scatter_fog"))
-        return FP_ERR;
-    return fp_cl_check(clEnqueueReadBuffer(q, ic->fog, CL_TRUE, 0, n * 4 * sizeof(float), out, 0,
-                                           NULL, NULL), "scatter: read fog");
+    return fp_integrate_cl_launch(ic, k, v, out, "scatter_fog");
 }
 
 void fp_scatter_cl_release(fp_scatter_cl_t *s)
