@@ -53,7 +53,17 @@ const fp_option_t fp_buffers_options[] = {
     { "fog-resolution", 0, FP_OPT_ENUM, BUF(resolution), 0, 0, "1", 0, 0, "1|1/2|1/4", NULL,
       "compute the fog at full, half or quarter resolution in each direction and bring it back "
       "by joint bilateral upsampling guided by the full-resolution depth; at depth edges a "
-      "pixel takes the nearest sample at its own distance", set_resolution, 0 },
+      "pixel takes the nearest sample at its own distance (see --fog-edges)", set_resolution, 0 },
+    { "fog-edges", 0, FP_OPT_ENUM, BUF(edges), 0, 0, "exact", 0, 0, "upsample|exact", NULL,
+      "at --fog-resolution 1/2 or 1/4, the pixels at depth edges (the low-resolution samples "
+      "around a pixel differ in distance from it by more than --fog-edge-threshold): exact "
+      "computes them again at full resolution, so their fog is the full-resolution fog (a few "
+      "percent of the pixels; the README gives the measured cost); upsample keeps the "
+      "upsampled value", NULL, 0 },
+    { "fog-edge-threshold", 0, FP_OPT_REAL, BUF(edge_threshold), 0, 0, "0.1", 1e-4, 1e6, NULL,
+      "R", "relative difference of distance |d1 - d2| / min(d1, d2) between a pixel and one "
+      "of the 4 low-resolution samples around it that makes it a depth-edge pixel for "
+      "--fog-edges exact (sky against geometry always does)", NULL, 0 },
     FP_OPT_END
 };
 
@@ -257,6 +267,30 @@ static double rel_diff(double d1, double d2)
     if (!(m > 0))
         return d1 == d2 ? 0 : INFINITY;
     return fabs(d1 - d2) / m;
+}
+
+size_t fp_upsample_edges(int f, double threshold, int w, int h, const float *dist, int *pix)
+{
+    size_t n = 0;
+    if (f <= 1)
+        return 0;
+    int lw = (w + f - 1) / f, lh = (h + f - 1) / f;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            if (x % f == 0 && y % f == 0)
+                continue;   /* a sample: computed at its own ray already */
+            size_t p = (size_t)y * w + x;
+            int ci = x / f, cj = y / f;
+            /* Past the last sample column or row (a size not a multiple of
+             * f): the upsampling would extrapolate. */
+            int edge = (x % f && ci + 1 >= lw) || (y % f && cj + 1 >= lh);
+            for (int j = cj; j <= cj + 1 && j < lh && !edge; j++)
+                for (int i = ci; i <= ci + 1 && i < lw && !edge; i++)
+                    edge = rel_diff(dist[p], dist[(size_t)(f * j) * w + (size_t)f * i]) > threshold;
+            if (edge)
+                pix[n++] = (int)p;
+        }
+    return n;
 }
 
 int fp_upsample(int f, double range, int w, int h, const float *dist, const float *lo,

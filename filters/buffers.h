@@ -10,7 +10,9 @@
  *   (f i, f j) only, through a strided view (fp_view_subsample), and brought
  *   back by joint bilateral upsampling guided by the full-resolution guide
  *   distance (Kopf et al. 2007), falling back to the sample of nearest
- *   distance where no sample matches the pixel's (an edge).
+ *   distance where no sample matches the pixel's (an edge); the pixels at
+ *   depth edges computed again at full resolution (fp_upsample_edges,
+ *   --fog-edges exact).
  *
  * The guide is the distance along each pixel's view ray (fp_buffers_guide),
  * +inf for sky: sky blends only with sky, geometry never with sky.  The
@@ -67,6 +69,19 @@ int fp_buffers_blur(const fp_buffers_params_t *b, int w, int h, const float *dis
  * is the range sigma (--blur-range).  f = 1 copies lo. */
 int fp_upsample(int f, double range, int w, int h, const float *dist, const float *lo,
                 float *fog);
+
+/* The depth-edge pixels of joint bilateral upsampling by f (> 1): those
+ * that are not samples and whose guide distance differs from that of one
+ * of the (up to 4) samples at the corners of the low-resolution cell that
+ * holds them by more than `threshold` (relative, as the range weight's r;
+ * sky against geometry always), and those past the last sample column or
+ * row (sizes not a multiple of f), where the upsampling would
+ * extrapolate.  Their fog is computed again at full
+ * resolution (--fog-edges exact): there the upsampling has no sample on
+ * the pixel's own surface or mixes in the fog beside a silhouette (light
+ * shafts start at the occluder's edge).  Writes their indices y * w + x,
+ * ascending, to pix (room for w * h) and returns how many; 0 for f <= 1. */
+size_t fp_upsample_edges(int f, double threshold, int w, int h, const float *dist, int *pix);
 
 /* OpenCL state kept across frames (program, kernels, buffers). */
 typedef struct fp_buffers_cl_t {

@@ -149,25 +149,35 @@ float fp_integrate_jitter(int x, int y)
 int fp_integrate_process(const fp_integrate_data_t *d, const fp_view_t *v,
                          const float *depth, float *fog, long *suspicious)
 {
-    long bad = 0;
-    int jitter = d->fp[FP_F_JITTER] != 0;
-    for (int y = 0; y < v->height; y++)
-        for (int x = 0; x < v->width; x++) {
-            size_t i = (size_t)y * v->width + x;
-            double dir[3], len;
+    if (suspicious) {
+        long bad = 0;
+        size_t n = (size_t)v->width * v->height;
+        for (size_t i = 0; i < n; i++) {
             int s;
             fp_view_is_sky(v, depth[i], &s);
             bad += s;
-            fp_view_ray(v, x, y, depth[i], dir, &len);
-            double od = fp_integrate_optical_depth(d, v->origin, dir, len,
-                                                   jitter ? fp_integrate_jitter(x, y) : 0);
-            double tau = exp(-od);
-            for (int c = 0; c < 3; c++)
-                fog[4 * i + c] = (float)((1 - tau) * d->fog_color[c]);
-            fog[4 * i + 3] = (float)tau;
         }
-    if (suspicious)
         *suspicious = bad;
+    }
+    return fp_integrate_pixels(d, v, depth, NULL, (size_t)v->width * v->height, fog);
+}
+
+int fp_integrate_pixels(const fp_integrate_data_t *d, const fp_view_t *v, const float *depth,
+                        const int *pix, size_t npix, float *fog)
+{
+    int jitter = d->fp[FP_F_JITTER] != 0;
+    for (size_t k = 0; k < npix; k++) {
+        size_t i = pix ? (size_t)pix[k] : k;
+        int x = (int)(i % (size_t)v->width), y = (int)(i / (size_t)v->width);
+        double dir[3], len;
+        fp_view_ray(v, x, y, depth[i], dir, &len);
+        double od = fp_integrate_optical_depth(d, v->origin, dir, len,
+                                               jitter ? fp_integrate_jitter(x, y) : 0);
+        double tau = exp(-od);
+        for (int c = 0; c < 3; c++)
+            fog[4 * k + c] = (float)((1 - tau) * d->fog_color[c]);
+        fog[4 * k + 3] = (float)tau;
+    }
     return FP_OK;
 }
 
@@ -278,38 +288,85 @@ int fp_integrate_cl_prepare(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
 int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth, float *fog)
 {
+    return fp_integrate_pixels_cl(s, d, v, depth, NULL, 0, fog);
+}
+
+int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                           const fp_view_t *v, const float *depth, const int *pix, size_t npix,
+                           float *fog)
+{
     if (fp_integrate_cl_prepare(s, d, v, depth))
         return FP_ERR;
     cl_float4 color = { { (float)d->fog_color[0], (float)d->fog_color[1],
                           (float)d->fog_color[2], 0 } };
-    if (FP_CL_ARG(s->kernel, 10, color))
+    if (FP_CL_ARG(s->kernel, 12, color))
         return FP_ERR;
-    return fp_integrate_cl_launch(s, s->kernel, v, fog, "integrate_fog");
+    return fp_integrate_cl_launch(s, s->kernel, v, pix, npix, fog, "integrate_fog");
 }
 
-int fp_integrate_cl_launch(fp_integrate_cl_t *s, cl_kernel k, const fp_view_t *v, float *fog,
-                           const char *what)
+/* The pixel list on the device (a one-entry buffer when there is none:
+ * the kernel argument is always a buffer). */
+static int upload_pixels(fp_integrate_cl_t *s, const int *pix, size_t npix)
+{
+    size_t need = pix && npix ? npix : 1;
+    if (need > s->pix_capacity) {
+        if (s->pix)
+            clReleaseMemObject(s->pix);
+        s->pix = NULL;
+        s->pix_capacity = 0;
+        cl_int err;
+        s->pix = clCreateBuffer(fp_cl_context(s->cl), CL_MEM_READ_ONLY, need * sizeof(cl_int),
+                                NULL, &err);
+        if (fp_cl_check(err, "integrate: pixel list buffer"))
+            return FP_ERR;
+        s->pix_capacity = need;
+    }
+    if (!pix || !npix)
+        return FP_OK;
+    /* Blocking: the caller's list may be gone before the launch ends. */
+    return fp_cl_check(clEnqueueWriteBuffer(fp_cl_queue(s->cl), s->pix, CL_TRUE, 0,
+                                            npix * sizeof(cl_int), pix, 0, NULL, NULL),
+                       "integrate: upload pixel list");
+}
+
+int fp_integrate_cl_launch(fp_integrate_cl_t *s, cl_kernel k, const fp_view_t *v, const int *pix,
+                           size_t npix, float *fog, const char *what)
 {
     cl_int w = v->width, h = v->height;
-    if (FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->fog) || FP_CL_ARG(k, 2, s->view) ||
-        FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) || FP_CL_ARG(k, 5, s->params) ||
-        FP_CL_ARG(k, 6, s->lvi) || FP_CL_ARG(k, 7, s->lvf) || FP_CL_ARG(k, 8, s->coef) ||
-        FP_CL_ARG(k, 9, s->occ))
+    if (!pix)
+        npix = 0;
+    if (npix > (size_t)w * h)
+        return fp_error("%s: %zu pixels listed, the frame has %d", what, npix, w * h);
+    if (npix == 0 && pix)
+        return FP_OK;
+    cl_int cnpix = (cl_int)npix;
+    if (upload_pixels(s, pix, npix) || FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->fog) ||
+        FP_CL_ARG(k, 2, s->view) || FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) ||
+        FP_CL_ARG(k, 5, s->params) || FP_CL_ARG(k, 6, s->lvi) || FP_CL_ARG(k, 7, s->lvf) ||
+        FP_CL_ARG(k, 8, s->coef) || FP_CL_ARG(k, 9, s->occ) || FP_CL_ARG(k, 10, s->pix) ||
+        FP_CL_ARG(k, 11, cnpix))
         return FP_ERR;
     cl_command_queue q = fp_cl_queue(s->cl);
     size_t local[2] = { 16, 8 };
     size_t global[2] = { fp_cl_round_up((size_t)w, local[0]), fp_cl_round_up((size_t)h, local[1]) };
+    if (npix) {
+        local[0] = 128;
+        local[1] = 1;
+        global[0] = fp_cl_round_up(npix, local[0]);
+        global[1] = 1;
+    }
     if (fp_cl_check(clEnqueueNDRangeKernel(q, k, 2, NULL, global, local, 0, NULL, NULL), what))
         return FP_ERR;
-    return fp_cl_check(clEnqueueReadBuffer(q, s->fog, CL_TRUE, 0,
-                                           (size_t)w * h * 4 * sizeof(float), fog, 0, NULL, NULL),
+    size_t nout = npix ? npix : (size_t)w * h;
+    return fp_cl_check(clEnqueueReadBuffer(q, s->fog, CL_TRUE, 0, nout * 4 * sizeof(float), fog, 0,
+                                           NULL, NULL),
                        "read the fog layer");
 }
 
 void fp_integrate_cl_release(fp_integrate_cl_t *s)
 {
     cl_mem *mems[] = { &s->depth, &s->fog, &s->view, &s->params, &s->lvi, &s->lvf, &s->coef,
-                       &s->occ };
+                       &s->occ, &s->pix };
     if (s->kernel)
         clReleaseKernel(s->kernel);
     for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)

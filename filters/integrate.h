@@ -62,12 +62,21 @@ float fp_integrate_jitter(int x, int y);
 int fp_integrate_process(const fp_integrate_data_t *d, const fp_view_t *v,
                          const float *depth, float *fog, long *suspicious);
 
+/* CPU reference for the npix pixels pix[] of the frame (indices
+ * y * width + x; depth is the whole frame's): fog[4*k] for pixel pix[k],
+ * the same values fp_integrate_process gives them.  pix NULL: all pixels
+ * in order (npix = width * height). */
+int fp_integrate_pixels(const fp_integrate_data_t *d, const fp_view_t *v, const float *depth,
+                        const int *pix, size_t npix, float *fog);
+
 /* OpenCL state kept across frames (program, kernel, buffers). */
 typedef struct fp_integrate_cl_t {
     fp_cl_t *cl;
     cl_kernel kernel;
     cl_mem depth, fog, view, params, lvi, lvf, coef, occ;
+    cl_mem pix;                           /* the pixel list of a list launch */
     size_t capacity;      /* pixels the buffers hold */
+    size_t pix_capacity;  /* entries the pixel list buffer holds */
     unsigned long uploaded;               /* serial of the tables on the device (0: none) */
 } fp_integrate_cl_t;
 
@@ -76,14 +85,20 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s);
  * NULL) depth on the device: what every per-pixel fog kernel reads. */
 int fp_integrate_cl_prepare(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth);
-/* Run a per-pixel fog kernel whose first ten arguments are (depth, fog
- * layer, view, width, height, parameters, lvi, lvf, coef, occ) on the
- * buffers fp_integrate_cl_prepare filled (the caller sets the others),
- * and read the fog layer back into `fog`. */
-int fp_integrate_cl_launch(fp_integrate_cl_t *s, cl_kernel k, const fp_view_t *v, float *fog,
-                           const char *what);
+/* Run a per-pixel fog kernel whose first twelve arguments are (depth, fog
+ * layer, view, width, height, parameters, lvi, lvf, coef, occ, pixel
+ * list, its length) on the buffers fp_integrate_cl_prepare filled (the
+ * caller sets the others), and read the fog layer back into `fog`: the
+ * whole frame (pix NULL), or the npix pixels pix[] (indices y * width + x)
+ * into fog[4*k], list order. */
+int fp_integrate_cl_launch(fp_integrate_cl_t *s, cl_kernel k, const fp_view_t *v, const int *pix,
+                           size_t npix, float *fog, const char *what);
 int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth, float *fog);
+/* As fp_integrate_pixels, on the device. */
+int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                           const fp_view_t *v, const float *depth, const int *pix, size_t npix,
+                           float *fog);
 void fp_integrate_cl_release(fp_integrate_cl_t *s);
 
 #endif

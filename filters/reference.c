@@ -437,11 +437,13 @@ typedef struct c_job_t {
     const fp_reference_grid_t *g;
     double lt[FP_LT_COUNT];
     float view[FP_VIEW_FLOATS];
-    float *out, *se;
-    atomic_int next_row;
+    const int *pix;      /* the pixel list (NULL: the frame) */
+    size_t npix;         /* entries: the list's, or the frame's pixels */
+    float *out, *se;     /* per entry */
+    atomic_size_t next;  /* the next chunk of entries to take */
 } c_job_t;
 
-static void *c_rows(void *arg)
+static void *c_entries(void *arg)
 {
     c_job_t *job = arg;
     const fp_view_t *v = job->v;
@@ -450,9 +452,11 @@ static void *c_rows(void *arg)
     const float *grid = job->g->cells ? job->g->cells : no_grid;
     int spp = job->p->reference.spp;
     uint32_t seed = (uint32_t)job->p->anim.seed;
-    for (int y; (y = atomic_fetch_add(&job->next_row, 1)) < v->height;)
-        for (int x = 0; x < v->width; x++) {
-            size_t i = (size_t)y * v->width + x;
+    size_t chunk = (size_t)v->width;
+    for (size_t e0; (e0 = atomic_fetch_add(&job->next, chunk)) < job->npix;)
+        for (size_t e = e0; e < e0 + chunk && e < job->npix; e++) {
+            size_t i = job->pix ? (size_t)job->pix[e] : e;
+            int x = (int)(i % (size_t)v->width), y = (int)(i / (size_t)v->width);
             double dir[3], len, sum[4] = { 0, 0, 0, 0 }, sq[4] = { 0, 0, 0, 0 };
             fp_view_ray(v, x, y, job->depth[i], dir, &len);
             for (int s = 0; s < spp; s++) {
@@ -469,15 +473,16 @@ static void *c_rows(void *arg)
                 sum[3] += tau;
                 sq[3] += tau * tau;
             }
-            finish_pixel(sum, sq, spp, job->out + 4 * i, job->se ? job->se + 4 * i : NULL);
+            finish_pixel(sum, sq, spp, job->out + 4 * e, job->se ? job->se + 4 * e : NULL);
         }
     return NULL;
 }
 
-int fp_reference_process_se(const fp_params_t *p, const fp_scatter_data_t *sd,
-                            const fp_integrate_data_t *fog, const fp_view_t *v,
-                            const float *depth, const fp_reference_opts_t *o, float *out,
-                            float *se)
+/* The C version for the frame (pix NULL) or a pixel list. */
+static int reference_c(const fp_params_t *p, const fp_scatter_data_t *sd,
+                       const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
+                       const fp_reference_opts_t *o, const int *pix, size_t npix, float *out,
+                       float *se)
 {
     fp_reference_grid_t g;
     int rc = setup_grid(p, sd, fog, v, depth, o, &g);
@@ -496,24 +501,41 @@ int fp_reference_process_se(const fp_params_t *p, const fp_scatter_data_t *sd,
     job->g = &g;
     light_params(sd, fog, job->lt);
     fp_view_pack(v, job->view);
+    job->pix = pix;
+    job->npix = pix ? npix : (size_t)v->width * v->height;
     job->out = out;
     job->se = se;
-    atomic_init(&job->next_row, 0);
-    /* Pixels are independent: threads take rows, the bits do not depend
-     * on how many. */
+    atomic_init(&job->next, 0);
+    /* Pixels are independent: threads take chunks of entries, the bits do
+     * not depend on how many. */
     long ncpu = sysconf(_SC_NPROCESSORS_ONLN);
     int nt = ncpu < 1 ? 1 : ncpu > 64 ? 64 : (int)ncpu;
     pthread_t th[64];
     int started = 0;
     for (; started < nt - 1; started++)
-        if (pthread_create(&th[started], NULL, c_rows, job))
+        if (pthread_create(&th[started], NULL, c_entries, job))
             break;
-    c_rows(job);
+    c_entries(job);
     for (int k = 0; k < started; k++)
         pthread_join(th[k], NULL);
     free(job);
     fp_reference_grid_release(&g);
     return FP_OK;
+}
+
+int fp_reference_process_se(const fp_params_t *p, const fp_scatter_data_t *sd,
+                            const fp_integrate_data_t *fog, const fp_view_t *v,
+                            const float *depth, const fp_reference_opts_t *o, float *out,
+                            float *se)
+{
+    return reference_c(p, sd, fog, v, depth, o, NULL, 0, out, se);
+}
+
+int fp_reference_pixels(const fp_params_t *p, const fp_scatter_data_t *sd,
+                        const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
+                        const int *pix, size_t npix, float *out)
+{
+    return npix ? reference_c(p, sd, fog, v, depth, NULL, pix, npix, out, NULL) : FP_OK;
 }
 
 int fp_reference_process(const fp_params_t *p, const fp_scatter_data_t *sd,
@@ -612,10 +634,11 @@ static int ensure_frame(fp_reference_cl_t *s, size_t n, size_t m)
     return FP_OK;
 }
 
-int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
-                               const fp_scatter_data_t *sd, const fp_integrate_data_t *fog,
-                               const fp_view_t *v, const float *depth,
-                               const fp_reference_opts_t *o, float *out, float *se)
+/* The OpenCL version for the frame (pix NULL) or a pixel list. */
+static int reference_cl(fp_reference_cl_t *s, const fp_params_t *p, const fp_scatter_data_t *sd,
+                        const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
+                        const fp_reference_opts_t *o, const int *pix, size_t npix, float *out,
+                        float *se)
 {
     fp_reference_grid_t g;
     int rc = setup_grid(p, sd, fog, v, depth, o, &g);
@@ -633,14 +656,18 @@ int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
     size_t ns = sd && sd->smap ? (size_t)sd->smap_w * sd->smap_h : 1;
     size_t ng = g.cells ? 2 * (size_t)g.n[0] * g.n[1] * g.n[2] : 2;
     /* Launches of at most FP_REF_LAUNCH pixel-samples (fewer with
-     * bounces): bands of rows, each through batches of samples, fixed by
-     * the frame's size and spp alone. */
+     * bounces): bands of entries (whole rows' worth), each through batches
+     * of samples, fixed by the frame's size and spp alone. */
     int w = v->width, h = v->height, spp = p->reference.spp;
     double budget = (double)FP_REF_LAUNCH / (1 + p->reference.bounces);
     int rows = (double)w * h <= budget ? h : (int)fmax(1, budget / w);
     int batch = (int)fmin(fmin(spp, FP_REF_BATCH), fmax(1, budget / ((double)w * rows)));
+    size_t band = (size_t)w * rows, entries = pix ? npix : n;
+    static const int no_pix[1] = { 0 };
     rc = FP_ERR;
-    if (ensure_frame(s, n, (size_t)w * rows) ||
+    if (ensure_frame(s, n, band) ||
+        upload(s, &s->pix, &s->pix_n, pix && npix ? pix : no_pix,
+               (pix && npix ? npix : 1) * sizeof(int), "reference: pixel list") ||
         fp_cl_check(clEnqueueWriteBuffer(q, s->view, CL_TRUE, 0, sizeof view, view, 0, NULL, NULL),
                     "reference: upload view") ||
         upload_reals(s, s->fp, fog->fp, FP_F_COUNT, "reference: upload fog parameters") ||
@@ -669,19 +696,21 @@ int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
     }
     cl_uint seed = (cl_uint)p->anim.seed;
     cl_kernel k = s->kernel;
-    for (int r0 = 0; r0 < h; r0 += rows) {
-        cl_int row0 = r0, nr = r0 + rows < h ? rows : h - r0, cw = w, ch = h;
-        size_t np = (size_t)w * nr;
+    cl_int cw = w, ch = h, cnpix = pix ? (cl_int)npix : 0;
+    for (size_t at = 0; at < entries; at += band) {
+        size_t np = at + band < entries ? band : entries - at;
+        cl_int e0 = (cl_int)at, ne = (cl_int)np;
         size_t global = fp_cl_round_up(np, 64);
         memset(s->sum, 0, np * 8 * sizeof *s->sum);
         for (int s0 = 0; s0 < spp; s0 += batch) {
             cl_int b0 = s0, b1 = s0 + batch < spp ? s0 + batch : spp;
             if (FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->acc) || FP_CL_ARG(k, 2, s->view) ||
-                FP_CL_ARG(k, 3, cw) || FP_CL_ARG(k, 4, ch) || FP_CL_ARG(k, 5, row0) ||
-                FP_CL_ARG(k, 6, nr) || FP_CL_ARG(k, 7, s->fp) || FP_CL_ARG(k, 8, s->lvi) ||
-                FP_CL_ARG(k, 9, s->lvf) || FP_CL_ARG(k, 10, s->coef) || FP_CL_ARG(k, 11, s->lt) ||
-                FP_CL_ARG(k, 12, s->smap) || FP_CL_ARG(k, 13, s->rp) || FP_CL_ARG(k, 14, s->grid) ||
-                FP_CL_ARG(k, 15, seed) || FP_CL_ARG(k, 16, b0) || FP_CL_ARG(k, 17, b1))
+                FP_CL_ARG(k, 3, cw) || FP_CL_ARG(k, 4, ch) || FP_CL_ARG(k, 5, s->pix) ||
+                FP_CL_ARG(k, 6, cnpix) || FP_CL_ARG(k, 7, e0) || FP_CL_ARG(k, 8, ne) ||
+                FP_CL_ARG(k, 9, s->fp) || FP_CL_ARG(k, 10, s->lvi) || FP_CL_ARG(k, 11, s->lvf) ||
+                FP_CL_ARG(k, 12, s->coef) || FP_CL_ARG(k, 13, s->lt) ||
+                FP_CL_ARG(k, 14, s->smap) || FP_CL_ARG(k, 15, s->rp) || FP_CL_ARG(k, 16, s->grid) ||
+                FP_CL_ARG(k, 17, seed) || FP_CL_ARG(k, 18, b0) || FP_CL_ARG(k, 19, b1))
                 goto done;
             if (fp_cl_check(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, NULL, 0, NULL, NULL),
                             "reference_fog") ||
@@ -691,7 +720,6 @@ int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
             for (size_t i = 0; i < np * 8; i++)
                 s->sum[i] += s->part[i];
         }
-        size_t at = (size_t)r0 * w;
         for (size_t i = 0; i < np; i++)
             finish_pixel(s->sum + 8 * i, s->sum + 8 * i + 4, spp, out + 4 * (at + i),
                          se ? se + 4 * (at + i) : NULL);
@@ -700,6 +728,22 @@ int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
 done:
     fp_reference_grid_release(&g);
     return rc;
+}
+
+int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
+                               const fp_scatter_data_t *sd, const fp_integrate_data_t *fog,
+                               const fp_view_t *v, const float *depth,
+                               const fp_reference_opts_t *o, float *out, float *se)
+{
+    return reference_cl(s, p, sd, fog, v, depth, o, NULL, 0, out, se);
+}
+
+int fp_reference_pixels_cl(fp_reference_cl_t *s, const fp_params_t *p,
+                           const fp_scatter_data_t *sd, const fp_integrate_data_t *fog,
+                           const fp_view_t *v, const float *depth, const int *pix, size_t npix,
+                           float *out)
+{
+    return npix ? reference_cl(s, p, sd, fog, v, depth, NULL, pix, npix, out, NULL) : FP_OK;
 }
 
 int fp_reference_process_cl(fp_reference_cl_t *s, const fp_params_t *p,
@@ -712,7 +756,7 @@ int fp_reference_process_cl(fp_reference_cl_t *s, const fp_params_t *p,
 void fp_reference_cl_release(fp_reference_cl_t *s)
 {
     cl_mem *mems[] = { &s->depth, &s->acc, &s->view, &s->fp, &s->lvi, &s->lvf,
-                       &s->coef, &s->lt, &s->smap, &s->rp, &s->grid };
+                       &s->coef, &s->lt, &s->smap, &s->rp, &s->grid, &s->pix };
     if (s->kernel)
         clReleaseKernel(s->kernel);
     for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)

@@ -112,15 +112,21 @@ int fp_reference_process_se(const fp_params_t *p, const fp_scatter_data_t *sd,
                             const fp_integrate_data_t *fog, const fp_view_t *v,
                             const float *depth, const fp_reference_opts_t *o, float *out,
                             float *se);
+/* The npix pixels pix[] of the frame (indices y * width + x; depth is the
+ * whole frame's) into out[4*k], list order: the same values
+ * fp_reference_process gives them.  pix NULL: all pixels in order. */
+int fp_reference_pixels(const fp_params_t *p, const fp_scatter_data_t *sd,
+                        const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
+                        const int *pix, size_t npix, float *out);
 
 /* OpenCL state kept across frames. */
 typedef struct fp_reference_cl_t {
     fp_cl_t *cl;
     cl_kernel kernel;
-    cl_mem depth, acc, view, fp, lvi, lvf, coef, lt, smap, rp, grid;
+    cl_mem depth, acc, view, fp, lvi, lvf, coef, lt, smap, rp, grid, pix;
     size_t capacity;          /* pixels the depth buffer holds */
-    size_t band;              /* pixels of a band of rows: acc, sum, part */
-    size_t coef_n, smap_n, grid_n;
+    size_t band;              /* entries of a band: acc, sum, part */
+    size_t coef_n, smap_n, grid_n, pix_n;
     unsigned long tables;     /* serial of the fogmap tables on the device (0: none) */
     double *sum;              /* per pixel of the band: sums of S.rgb, tau and of their
                                  squares */
@@ -135,6 +141,11 @@ int fp_reference_process_cl_se(fp_reference_cl_t *s, const fp_params_t *p,
                                const fp_scatter_data_t *sd, const fp_integrate_data_t *fog,
                                const fp_view_t *v, const float *depth,
                                const fp_reference_opts_t *o, float *out, float *se);
+/* As fp_reference_pixels, on the device. */
+int fp_reference_pixels_cl(fp_reference_cl_t *s, const fp_params_t *p,
+                           const fp_scatter_data_t *sd, const fp_integrate_data_t *fog,
+                           const fp_view_t *v, const float *depth, const int *pix, size_t npix,
+                           float *out);
 void fp_reference_cl_release(fp_reference_cl_t *s);
 
 #endif

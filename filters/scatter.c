@@ -506,21 +506,28 @@ static int uses_grid(const fp_scatter_data_t *d)
 int fp_scatter_process(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                        const fp_view_t *v, const float *depth, float *out)
 {
+    return fp_scatter_pixels(d, fog, v, depth, NULL, (size_t)v->width * v->height, out);
+}
+
+int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                      const fp_view_t *v, const float *depth, const int *pix, size_t npix,
+                      float *out)
+{
     if (uses_grid(d) && fill_grid((fp_scatter_data_t *)d, fog))
         return FP_ERR;
     float view[FP_VIEW_FLOATS];
     fp_view_pack(v, view);
-    for (int y = 0; y < v->height; y++)
-        for (int x = 0; x < v->width; x++) {
-            size_t i = (size_t)y * v->width + x;
-            double dir[3], len, S[3];
-            fp_view_ray(v, x, y, depth[i], dir, &len);
-            double tau = fp_scatter_ray_at(d, fog, v, view, depth, v->origin, dir, len,
-                                           fp_interleave_offset(d->lt, x, y), S);
-            for (int c = 0; c < 3; c++)
-                out[4 * i + c] = (float)S[c];
-            out[4 * i + 3] = (float)tau;
-        }
+    for (size_t k = 0; k < npix; k++) {
+        size_t i = pix ? (size_t)pix[k] : k;
+        int x = (int)(i % (size_t)v->width), y = (int)(i / (size_t)v->width);
+        double dir[3], len, S[3];
+        fp_view_ray(v, x, y, depth[i], dir, &len);
+        double tau = fp_scatter_ray_at(d, fog, v, view, depth, v->origin, dir, len,
+                                       fp_interleave_offset(d->lt, x, y), S);
+        for (int c = 0; c < 3; c++)
+            out[4 * k + c] = (float)S[c];
+        out[4 * k + 3] = (float)tau;
+    }
     return FP_OK;
 }
 
@@ -578,6 +585,13 @@ int fp_scatter_process_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sc
                           const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
                           float *out)
 {
+    return fp_scatter_pixels_cl(s, ic, d, fog, v, depth, NULL, 0, out);
+}
+
+int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_scatter_data_t *d,
+                         const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
+                         const int *pix, size_t npix, float *out)
+{
     if (fp_integrate_cl_prepare(ic, fog, v, depth) || upload(s, d))
         return FP_ERR;
     cl_command_queue q = fp_cl_queue(s->cl);
@@ -593,9 +607,9 @@ int fp_scatter_process_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sc
             return FP_ERR;
     }
     cl_kernel k = s->kernel;
-    if (FP_CL_ARG(k, 10, s->lt) || FP_CL_ARG(k, 11, s->smap) || FP_CL_ARG(k, 12, s->grid))
+    if (FP_CL_ARG(k, 12, s->lt) || FP_CL_ARG(k, 13, s->smap) || FP_CL_ARG(k, 14, s->grid))
         return FP_ERR;
-    return fp_integrate_cl_launch(ic, k, v, out, "scatter_fog");
+    return fp_integrate_cl_launch(ic, k, v, pix, npix, out, "scatter_fog");
 }
 
 void fp_scatter_cl_release(fp_scatter_cl_t *s)

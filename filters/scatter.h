@@ -57,6 +57,12 @@ double fp_scatter_ray_at(const fp_scatter_data_t *d, const fp_integrate_data_t *
 /* CPU reference for a whole frame: fog[4*i] = (S.r, S.g, S.b, tau). */
 int fp_scatter_process(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                        const fp_view_t *v, const float *depth, float *out);
+/* The npix pixels pix[] of the frame (indices y * width + x; depth is the
+ * whole frame's) into out[4*k], list order: the same values
+ * fp_scatter_process gives them.  pix NULL: all pixels in order. */
+int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                      const fp_view_t *v, const float *depth, const int *pix, size_t npix,
+                      float *out);
 
 typedef struct fp_scatter_cl_t {
     fp_cl_t *cl;
@@ -72,6 +78,10 @@ int fp_scatter_cl_init(fp_cl_t *cl, fp_scatter_cl_t *s);
 int fp_scatter_process_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_scatter_data_t *d,
                           const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
                           float *out);
+/* As fp_scatter_pixels, on the device (pix NULL: the whole frame). */
+int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_scatter_data_t *d,
+                         const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
+                         const int *pix, size_t npix, float *out);
 void fp_scatter_cl_release(fp_scatter_cl_t *s);
 
 #endif

@@ -60,4 +60,29 @@ inline float3 fp_view_origin(__constant const float *view)
     return (float3)(view[0], view[1], view[2]);
 }
 
+/* The pixel (x, y) a work-item of a per-pixel fog kernel computes and the
+ * index of its result: the whole frame (npix 0: 2D ids, result at
+ * y * width + x) or the pixels pix[0 .. npix) of the frame (indices
+ * y * width + x; 1D ids, results in list order).  0 for ids past the end. */
+inline int fp_work_pixel(__global const int *pix, int npix, int width, int height, int *x,
+                         int *y, int *out)
+{
+    if (npix > 0) {
+        int g = get_global_id(0);
+        if (g >= npix)
+            return 0;
+        int p = pix[g];
+        *x = p % width;
+        *y = p / width;
+        *out = g;
+        return 1;
+    }
+    *x = get_global_id(0);
+    *y = get_global_id(1);
+    if (*x >= width || *y >= height)
+        return 0;
+    *out = *y * width + *x;
+    return 1;
+}
+
 #endif

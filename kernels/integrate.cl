@@ -15,16 +15,17 @@ inline float pixel_jitter(int x, int y)
     return (float)(h & 0xffffffu) / 16777216.0f - 0.5f;
 }
 
-/* Per pixel: fog layer (S.rgb, tau) with the ambient in-scatter of seed 000
+/* Per pixel (of the frame or of a list, fp_work_pixel): fog layer (S.rgb, tau) with the ambient in-scatter of seed 000
  * eq. 4: S = (1 - tau) * fog_color. */
 __kernel void integrate_fog(__global const float *depth, __global float4 *fog_out,
                             __constant const float *view, const int width, const int height,
                             __constant const float *fp, __constant const int *lvi,
                             __constant const float *lvf, __global const float *coef,
-                            __global const uchar *occ, const float4 fog_color)
+                            __global const uchar *occ, __global const int *pix, const int npix,
+                            const float4 fog_color)
 {
-    int x = get_global_id(0), y = get_global_id(1);
-    if (x >= width || y >= height)
+    int x, y, out;
+    if (!fp_work_pixel(pix, npix, width, height, &x, &y, &out))
         return;
     int i = y * width + x;
     float len;
@@ -34,5 +35,5 @@ __kernel void integrate_fog(__global const float *depth, __global float4 *fog_ou
     float od = fp_fog_od(fp, lvi, lvf, coef, occ, o.x, o.y, o.z, dir.x, dir.y, dir.z, len, jitter);
     float tau = exp(-od);
     float3 s = (1.0f - tau) * fog_color.xyz;
-    fog_out[i] = (float4)(s, tau);
+    fog_out[out] = (float4)(s, tau);
 }

@@ -1,9 +1,10 @@
 /* fogpipe: the Monte Carlo reference (--integrator reference), per pixel.
  * Host side and C version: filters/reference.c; the estimator itself is in
- * reference_core.h.  One launch covers a band of rows and a batch of
- * samples [s0, s1) and writes each pixel's sums over the batch (S.rgb,
- * tau, then their squares, for the standard errors); the host adds the
- * batches in double precision. */
+ * reference_core.h.  One launch covers a band of entries [e0, e0 + ne)
+ * of the frame (entry e: pixel e) or of a pixel list (npix > 0; entry e:
+ * pixel pix[e]) and a batch of samples [s0, s1), and writes each entry's
+ * sums over the batch (S.rgb, tau, then their squares, for the standard
+ * errors); the host adds the batches in double precision. */
 #include "fp_common.h"
 #include "fog_core.h"
 #include "light_core.h"
@@ -11,7 +12,8 @@
 
 __kernel void reference_fog(__global const float *depth, __global float *acc,
                             __constant const float *view, const int width, const int height,
-                            const int row0, const int rows, __constant const float *fp,
+                            __global const int *pix, const int npix, const int e0,
+                            const int ne, __constant const float *fp,
                             __constant const int *lvi, __constant const float *lvf,
                             __global const float *coef, __constant const float *lt,
                             __global const float *smap, __constant const float *rp,
@@ -19,10 +21,10 @@ __kernel void reference_fog(__global const float *depth, __global float *acc,
                             const int s1)
 {
     int g = get_global_id(0);
-    if (g >= width * rows)
+    if (g >= ne)
         return;
-    int x = g % width, y = row0 + g / width;
-    int i = y * width + x;
+    int i = npix > 0 ? pix[e0 + g] : e0 + g;
+    int x = i % width, y = i / width;
     float len;
     float3 dir = fp_view_ray(view, x, y, depth[i], &len);
     float3 o = fp_view_origin(view);

@@ -6,15 +6,17 @@
 #include "light_core.h"
 #include "scatter_core.h"
 
+/* Per pixel (of the frame or of a list, fp_work_pixel): S.rgb and tau. */
 __kernel void scatter_fog(__global const float *depth, __global float4 *fog_out,
                           __constant const float *view, const int width, const int height,
                           __constant const float *fp, __constant const int *lvi,
                           __constant const float *lvf, __global const float *coef,
-                          __global const uchar *occ, __constant const float *lt,
-                          __global const float *smap, __global const float *grid)
+                          __global const uchar *occ, __global const int *pix, const int npix,
+                          __constant const float *lt, __global const float *smap,
+                          __global const float *grid)
 {
-    int x = get_global_id(0), y = get_global_id(1);
-    if (x >= width || y >= height)
+    int x, y, out;
+    if (!fp_work_pixel(pix, npix, width, height, &x, &y, &out))
         return;
     int i = y * width + x;
     float len;
@@ -24,7 +26,7 @@ __kernel void scatter_fog(__global const float *depth, __global float4 *fog_out,
     float tau = fp_scatter_ray_core(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width,
                                     height, o.x, o.y, o.z, dir.x, dir.y, dir.z, len,
                                     fp_interleave_offset(lt, x, y), S);
-    fog_out[i] = (float4)(S[0], S[1], S[2], tau);
+    fog_out[out] = (float4)(S[0], S[1], S[2], tau);
 }
 
 /* The self-shadow grid: optical depth from each node to the sun, exact. */

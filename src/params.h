@@ -152,6 +152,7 @@ typedef struct fp_reference_params_t {
 /* Fog buffers (filters/buffers.c): depth-aware bilateral blur of the fog
  * layer and reduced-resolution fog with joint bilateral upsampling. */
 enum { FP_BLUR_OFF = 0, FP_BLUR_BILATERAL = 1 };
+enum { FP_EDGES_UPSAMPLE = 0, FP_EDGES_EXACT = 1 };
 typedef struct fp_buffers_params_t {
     int blur;             /* FP_BLUR_* */
     int radius;           /* spatial radius, pixels */
@@ -161,6 +162,8 @@ typedef struct fp_buffers_params_t {
     double falloff;       /* no blur within this distance of the camera, full at twice it */
     int separable;        /* 1: horizontal then vertical passes; 0: full 2D kernel */
     int resolution;       /* fog computed every `resolution` pixels: 1, 2 or 4 */
+    int edges;            /* FP_EDGES_*: depth-edge pixels at reduced resolution */
+    double edge_threshold;  /* relative distance difference that makes an edge pixel */
 } fp_buffers_params_t;
 
 typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */

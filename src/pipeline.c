@@ -199,20 +199,91 @@ static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
 /* The fog layer of a view (the frame's, or its strided sub-view for
  * --fog-resolution): the Monte Carlo reference, light in the fog, or the
  * extinction with ambient fog alone. */
-static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, float *fog)
+/* The fog layer of the view's frame (pix NULL) or of its npix pixels
+ * pix[] (into fog[4*k], list order), by the chosen integrator. */
+static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, const int *pix,
+                       size_t npix, float *fog)
 {
     fp_params_t *p = r->p;
-    if (r->reference || r->light.active) {
-        if (r->reference)
-            return r->use_cl ? fp_reference_process_cl(&r->rcl, p, &r->light, &r->fog, view, depth,
-                                                       fog)
-                             : fp_reference_process(p, &r->light, &r->fog, view, depth, fog);
-        return r->use_cl ? fp_scatter_process_cl(&r->scl, &r->icl, &r->light, &r->fog, view,
-                                                 depth, fog)
-                         : fp_scatter_process(&r->light, &r->fog, view, depth, fog);
+    size_t n = pix ? npix : (size_t)view->width * view->height;
+    if (r->reference)
+        return r->use_cl
+                   ? fp_reference_pixels_cl(&r->rcl, p, &r->light, &r->fog, view, depth, pix, n, fog)
+                   : fp_reference_pixels(p, &r->light, &r->fog, view, depth, pix, n, fog);
+    if (r->light.active)
+        return r->use_cl ? fp_scatter_pixels_cl(&r->scl, &r->icl, &r->light, &r->fog, view, depth,
+                                                pix, n, fog)
+                         : fp_scatter_pixels(&r->light, &r->fog, view, depth, pix, n, fog);
+    return r->use_cl ? fp_integrate_pixels_cl(&r->icl, &r->fog, view, depth, pix, n, fog)
+                     : fp_integrate_pixels(&r->fog, view, depth, pix, n, fog);
+}
+
+/* The fog layer of a frame (filters/buffers.h): at full resolution, or
+ * (--fog-resolution 1/F) at every F-th pixel each way (a strided view:
+ * those pixels' own rays and depths) brought back by joint bilateral
+ * upsampling guided by the full-resolution depth, with the depth-edge
+ * pixels computed again at full resolution (--fog-edges exact); then the
+ * depth-aware blur.  Errors are reported, naming the file and frame. */
+static int frame_fog(run_t *r, const fp_view_t *view, const float *depth, const char *in_name,
+                     long frame, float *fog)
+{
+    fp_params_t *p = r->p;
+    int w = view->width, h = view->height, rc = FP_OK;
+    size_t n = (size_t)w * h;
+    int res = p->buffers.resolution > 1 ? p->buffers.resolution : 1;
+    float *dist = NULL, *lo = NULL, *lo_depth = NULL, *edge_fog = NULL;
+    int *edges = NULL;
+    fp_view_t sub = *view;
+    if (r->buffers) {
+        dist = malloc(n * sizeof *dist);
+        if (res > 1) {
+            fp_view_subsample(view, res, &sub);
+            size_t ns = (size_t)sub.width * sub.height;
+            lo = malloc(ns * 4 * sizeof *lo);
+            lo_depth = malloc(ns * sizeof *lo_depth);
+            if (p->buffers.edges == FP_EDGES_EXACT)
+                edges = malloc(n * sizeof *edges);
+        }
+        if (!dist || (res > 1 && (!lo || !lo_depth)) ||
+            (res > 1 && p->buffers.edges == FP_EDGES_EXACT && !edges)) {
+            rc = fp_error("%s: frame %ld: out of memory", in_name, frame);
+            goto done;
+        }
+        fp_buffers_guide(view, depth, dist);
+        if (res > 1)
+            fp_depth_subsample(depth, w, h, res, lo_depth);
     }
-    return r->use_cl ? fp_integrate_process_cl(&r->icl, &r->fog, view, depth, fog)
-                     : fp_integrate_process(&r->fog, view, depth, fog, NULL);
+    /* Light in the fog: this frame's shadow map and projection (a bad
+     * shadow map is the user's input: its own one-line message). */
+    if ((r->reference || r->light.active) &&
+        (rc = fp_scatter_frame(p, &r->light, &r->fog, &sub, res > 1 ? lo_depth : depth, frame)))
+        goto done;
+    rc = compute_fog(r, &sub, res > 1 ? lo_depth : depth, NULL, 0, res > 1 ? lo : fog);
+    if (rc == FP_OK && res > 1)
+        rc = r->use_cl ? fp_upsample_cl(&r->bcl, res, p->buffers.range, w, h, dist, lo, fog)
+                       : fp_upsample(res, p->buffers.range, w, h, dist, lo, fog);
+    if (rc == FP_OK && edges) {
+        size_t ne = fp_upsample_edges(res, p->buffers.edge_threshold, w, h, dist, edges);
+        if (ne && !(edge_fog = malloc(ne * 4 * sizeof *edge_fog))) {
+            rc = fp_error("%s: frame %ld: out of memory", in_name, frame);
+            goto done;
+        }
+        if (ne && (rc = compute_fog(r, view, depth, edges, ne, edge_fog)) == FP_OK)
+            for (size_t k = 0; k < ne; k++)
+                memcpy(fog + 4 * (size_t)edges[k], edge_fog + 4 * k, 4 * sizeof *fog);
+    }
+    if (rc == FP_OK && p->buffers.blur != FP_BLUR_OFF)
+        rc = r->use_cl ? fp_buffers_blur_cl(&r->bcl, &p->buffers, w, h, dist, fog)
+                       : fp_buffers_blur(&p->buffers, w, h, dist, fog);
+    if (rc)
+        fp_error("%s: frame %ld: fog computation failed", in_name, frame);
+done:
+    free(dist);
+    free(lo);
+    free(lo_depth);
+    free(edges);
+    free(edge_fog);
+    return rc;
 }
 
 /* Stage 2, calling thread (it owns the device): fog one decoded frame and
@@ -257,55 +328,8 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     long suspicious = 0;
     for (size_t i = 0; i < n; i++)
         suspicious += isnan(depth[i]) || depth[i] < 0;
-    /* --fog-resolution 1/F: the fog at every F-th pixel each way (a
-     * strided view: those pixels' own rays and depths), brought back by
-     * joint bilateral upsampling guided by the full-resolution depth; then
-     * the depth-aware blur (filters/buffers.h). */
-    int res = p->buffers.resolution > 1 ? p->buffers.resolution : 1;
-    float *dist = NULL, *lo = NULL, *lo_depth = NULL;
-    fp_view_t sub = view;
-    if (r->buffers) {
-        dist = malloc(n * sizeof *dist);
-        if (res > 1) {
-            fp_view_subsample(&view, res, &sub);
-            size_t ns = (size_t)sub.width * sub.height;
-            lo = malloc(ns * 4 * sizeof *lo);
-            lo_depth = malloc(ns * sizeof *lo_depth);
-        }
-        if (!dist || (res > 1 && (!lo || !lo_depth))) {
-            rc = fp_error("%s: frame %ld: out of memory", in_name, frame);
-            goto buffers_done;
-        }
-        fp_buffers_guide(&view, depth, dist);
-        if (res > 1)
-            fp_depth_subsample(depth, info->width, info->height, res, lo_depth);
-    }
-    /* Light in the fog: this frame's shadow map and projection (a bad
-     * shadow map is the user's input: its own one-line message). */
-    if ((r->reference || r->light.active) &&
-        (rc = fp_scatter_frame(p, &r->light, &r->fog, &sub, res > 1 ? lo_depth : depth, frame))) {
-        free(dist);
-        free(lo);
-        free(lo_depth);
+    if ((rc = frame_fog(r, &view, depth, in_name, frame, fog)))
         goto done;
-    }
-    rc = compute_fog(r, &sub, res > 1 ? lo_depth : depth, res > 1 ? lo : fog);
-    if (rc == FP_OK && res > 1)
-        rc = r->use_cl ? fp_upsample_cl(&r->bcl, res, p->buffers.range, info->width, info->height,
-                                        dist, lo, fog)
-                       : fp_upsample(res, p->buffers.range, info->width, info->height, dist, lo, fog);
-    if (rc == FP_OK && p->buffers.blur != FP_BLUR_OFF)
-        rc = r->use_cl ? fp_buffers_blur_cl(&r->bcl, &p->buffers, info->width, info->height, dist,
-                                            fog)
-                       : fp_buffers_blur(&p->buffers, info->width, info->height, dist, fog);
-buffers_done:
-    free(dist);
-    free(lo);
-    free(lo_depth);
-    if (rc) {
-        fp_error("%s: frame %ld: fog computation failed", in_name, frame);
-        goto done;
-    }
     if (suspicious)
         fp_warn("%s: frame %ld: %ld pixels with NaN or negative depth treated as sky",
                 in_name, frame, suspicious);

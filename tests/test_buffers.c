@@ -18,7 +18,14 @@
  *  7. OpenCL against the C reference (both kernels, 2 iterations,
  *     falloff; upsampling at 1/2 and 1/4) within 1e-5;
  *  8. sky blends only with sky, geometry only with geometry;
- *  9. option parsing.
+ *  9. option parsing;
+ * 10. the depth-edge pixels of the upsampling (fp_upsample_edges): none on
+ *     smooth depth but past the last sample row and column; on depth with
+ *     edges exactly the pixels its definition names (never a sample,
+ *     ascending), the one-pixel pole and the horizon among them;
+ * 11. --fog-edges exact: upsampled fog with the edge pixels computed again
+ *     at full resolution against full-resolution fog, over depth edges
+ *     and sky (bounds), and better than the upsampling alone.
  * Every comparison prints its measured figure next to its bound. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -677,6 +684,142 @@ static void test_options(void **state)
     fp_options_free(&p);
 }
 
+/* ---------------------------------------------------------------- 10 */
+
+static double rel_of(double a, double b)
+{
+    if (isinf(a) || isinf(b))
+        return isinf(a) && isinf(b) ? 0 : INFINITY;
+    return fabs(a - b) / fmin(a, b);
+}
+
+static void test_edges_list(void **state)
+{
+    (void)state;
+    const int w = 171, h = 114;   /* partial last cells at 1/2 and 1/4; the pole at x = 21 */
+    size_t n = (size_t)w * h;
+    fp_view_t v;
+    view_fov(&v, w, h, "40");
+    float *depth = malloc(n * sizeof(float)), *dist = malloc(n * sizeof(float));
+    int *pix = malloc(n * sizeof(int));
+    unsigned char *listed = malloc(n);
+    assert_non_null(listed);
+    const double t = 0.1;
+    smooth_depth(w, h, depth);
+    fp_buffers_guide(&v, depth, dist);
+    for (int f = 2; f <= 4; f *= 2) {
+        /* Only the columns and rows past the last sample: x, y > f (lw - 1). */
+        int lw = (w + f - 1) / f, lh = (h + f - 1) / f;
+        size_t border = (size_t)(w - f * (lw - 1) - 1) * h + (size_t)(h - f * (lh - 1) - 1) * w -
+                        (size_t)(w - f * (lw - 1) - 1) * (h - f * (lh - 1) - 1);
+        assert_int_equal(fp_upsample_edges(f, t, w, h, dist, pix), border);
+    }
+    assert_int_equal(fp_upsample_edges(1, t, w, h, dist, pix), 0);
+    scene_depth(w, h, depth, 1);
+    fp_buffers_guide(&v, depth, dist);
+    for (int f = 2; f <= 4; f *= 2) {
+        size_t m = fp_upsample_edges(f, t, w, h, dist, pix);
+        memset(listed, 0, n);
+        for (size_t k = 0; k < m; k++) {
+            assert_true(pix[k] >= 0 && (size_t)pix[k] < n);
+            if (k)
+                assert_true(pix[k] > pix[k - 1]);
+            listed[pix[k]] = 1;
+        }
+        /* The definition, pixel by pixel: not a sample, and a corner
+         * sample of its cell farther than t in relative distance. */
+        int lw = (w + f - 1) / f, lh = (h + f - 1) / f;
+        long wrong = 0, pole = 0, pole_listed = 0, horizon = 0, horizon_listed = 0;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                size_t p = (size_t)y * w + x;
+                int want = (x % f && x / f + 1 >= lw) || (y % f && y / f + 1 >= lh);
+                if (x % f || y % f)
+                    for (int j = y / f; j <= y / f + 1 && j < lh; j++)
+                        for (int i = x / f; i <= x / f + 1 && i < lw; i++)
+                            want |= rel_of(dist[p], dist[(size_t)(f * j) * w + f * i]) > t;
+                wrong += want != listed[p];
+                if (x == w / 8 && x % f && y > h / 5 && !(x > w / 6 && x < w / 3)) {
+                    pole++;
+                    pole_listed += listed[p];
+                }
+                if (y == h / 5 - 1 && y % f && !(x > w / 2 - 2 && x < w / 2 + 10)) {
+                    horizon++;
+                    horizon_listed += listed[p];
+                }
+            }
+        print_message("depth-edge pixels at 1/%d (threshold %g): %zu of %zu (%.1f%%), %ld against "
+                      "the definition (bound 0); the one-pixel pole %ld/%ld, the row above the "
+                      "horizon %ld/%ld\n", f, t, m, n, 100.0 * m / n, wrong, pole_listed, pole,
+                      horizon_listed, horizon);
+        assert_int_equal(wrong, 0);
+        assert_true(pole > 0 && pole_listed == pole);
+        assert_true(horizon > 0 && horizon_listed == horizon);
+        assert_true(m < n / 4);
+    }
+    free(depth);
+    free(dist);
+    free(pix);
+    free(listed);
+}
+
+/* ---------------------------------------------------------------- 11 */
+
+static void test_edges_exact(void **state)
+{
+    (void)state;
+    const int w = 160, h = 112;
+    size_t n = (size_t)w * h;
+    fp_view_t v;
+    view_fov(&v, w, h, "40");
+    float *depth = malloc(n * sizeof(float)), *dist = malloc(n * sizeof(float));
+    float *full = malloc(n * 4 * sizeof(float)), *up = malloc(n * 4 * sizeof(float));
+    float *ldepth = malloc(n * sizeof(float)), *lo = malloc(n * 4 * sizeof(float));
+    float *edge_fog = malloc(n * 4 * sizeof(float));
+    int *pix = malloc(n * sizeof(int));
+    assert_non_null(pix);
+    scene_depth(w, h, depth, 1);
+    fp_buffers_guide(&v, depth, dist);
+    fp_params_t p;
+    assert_int_equal(fp_options_defaults(&p), FP_OK);
+    assert_int_equal(fp_options_apply(&p, "density", "0.05", "test"), FP_OK);
+    assert_int_equal(fp_options_apply(&p, "fog-color", "0.8,0.85,0.9", "test"), FP_OK);
+    fp_integrate_data_t d;
+    assert_int_equal(fp_integrate_commit(&p, &d), FP_OK);
+    assert_int_equal(fp_integrate_process(&d, &v, depth, full, NULL), FP_OK);
+    for (int f = 2; f <= 4; f *= 2) {
+        fp_view_t sv;
+        fp_view_subsample(&v, f, &sv);
+        fp_depth_subsample(depth, w, h, f, ldepth);
+        assert_int_equal(fp_integrate_process(&d, &sv, ldepth, lo, NULL), FP_OK);
+        assert_int_equal(fp_upsample(f, p.buffers.range, w, h, dist, lo, up), FP_OK);
+        double before = 0, after = 0;
+        for (size_t i = 0; i < 4 * n; i++)
+            before = fmax(before, fabs((double)up[i] - full[i]));
+        size_t m = fp_upsample_edges(f, p.buffers.edge_threshold, w, h, dist, pix);
+        assert_int_equal(fp_integrate_pixels(&d, &v, depth, pix, m, edge_fog), FP_OK);
+        for (size_t k = 0; k < m; k++)
+            memcpy(up + 4 * (size_t)pix[k], edge_fog + 4 * k, 4 * sizeof(float));
+        for (size_t i = 0; i < 4 * n; i++)
+            after = fmax(after, fabs((double)up[i] - full[i]));
+
+        print_message("1/%d against full resolution: upsampled alone max |error| %.4f, with the "
+                      "%zu depth-edge pixels (%.1f%%) computed again %.4f (bound 0.01)\n", f,
+                      before, m, 100.0 * m / n, after);
+        assert_true(after <= 0.01);
+        assert_true(after < 0.5 * before);
+    }
+    fp_options_free(&p);
+    free(depth);
+    free(dist);
+    free(full);
+    free(up);
+    free(ldepth);
+    free(lo);
+    free(edge_fog);
+    free(pix);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -689,6 +832,8 @@ int main(void)
         cmocka_unit_test(test_opencl_parity),
         cmocka_unit_test(test_sky),
         cmocka_unit_test(test_options),
+        cmocka_unit_test(test_edges_list),
+        cmocka_unit_test(test_edges_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -165,7 +165,10 @@ static void test_opencl_parity(void **state)
     const double cams[4][2] = { { 1.5, -3 }, { 12, -30 }, { 60, -80 }, { -4, 20 } };
     const double fogs[3][4] = { { 0.05, 0, 8, INFINITY }, { 0.02, 2, 20, 40 },
                                 { 0.01, -1, INFINITY, 15 } };
-    double worst = 0;
+    double worst = 0, list_worst[2] = { 0, 0 };
+    int *pix = malloc((n / 3 + 1) * sizeof *pix);
+    float *lst = malloc((n / 3 + 1) * 4 * sizeof *lst);
+    assert_non_null(lst);
     for (int ci = 0; ci < 4; ci++)
         for (int fi = 0; fi < 3; fi++) {
             fp_view_t v;
@@ -189,8 +192,21 @@ static void test_opencl_parity(void **state)
                         fail_msg("camera %d fog %d pixel %zu ch %d depth %g: cl %.9g ref %.9g",
                                  ci, fi, i, c, depth[i], got[4 * i + c], ref[4 * i + c]);
                 }
+            /* A pixel list (every 3rd pixel, out of order): the frame's
+             * values, C and OpenCL. */
+            size_t m = test_pixel_list(n, pix);
+            assert_int_equal(fp_integrate_pixels(&d, &v, depth, pix, m, lst), FP_OK);
+            list_worst[0] = fmax(list_worst[0], test_list_diff(ref, pix, m, lst));
+            assert_int_equal(fp_integrate_pixels_cl(&s, &d, &v, depth, pix, m, lst), FP_OK);
+            list_worst[1] = fmax(list_worst[1], test_list_diff(got, pix, m, lst));
         }
     print_message("OpenCL vs C reference: max |difference| %.3g (tolerance 1e-5)\n", worst);
+    print_message("pixel lists vs the whole frame: C %.3g, OpenCL %.3g (bounds 0, 1e-6)\n",
+                  list_worst[0], list_worst[1]);
+    assert_true(list_worst[0] == 0);
+    assert_true(list_worst[1] <= 1e-6);
+    free(pix);
+    free(lst);
     free(depth);
     free(ref);
     free(got);

@@ -849,6 +849,14 @@ static void test_determinism(void **state)
     assert_int_equal(fp_reference_process(&sc.p, &sc.sd, &sc.fog, &sc.v, sc.depth, a), FP_OK);
     assert_int_equal(fp_reference_process(&sc.p, &sc.sd, &sc.fog, &sc.v, sc.depth, b), FP_OK);
     assert_memory_equal(a, b, bytes);
+    /* A pixel list (every 3rd pixel, out of order; --fog-edges exact):
+     * each pixel's own random stream, so the frame's values. */
+    int *pix = malloc((n / 3 + 1) * sizeof *pix);
+    float *lst = malloc((n / 3 + 1) * 4 * sizeof *lst);
+    size_t m = test_pixel_list(n, pix);
+    assert_int_equal(fp_reference_pixels(&sc.p, &sc.sd, &sc.fog, &sc.v, sc.depth, pix, m, lst),
+                     FP_OK);
+    double c_list = test_list_diff(a, pix, m, lst);
     sc.p.anim.seed = 12;
     assert_int_equal(fp_reference_process(&sc.p, &sc.sd, &sc.fog, &sc.v, sc.depth, c), FP_OK);
     assert_memory_not_equal(a, c, bytes);
@@ -865,6 +873,12 @@ static void test_determinism(void **state)
         assert_int_equal(fp_reference_process_cl(&rc2, &sc.p, &sc.sd, &sc.fog, &sc.v, sc.depth,
                                                  b), FP_OK);
         assert_memory_equal(a, b, bytes);
+        assert_int_equal(fp_reference_pixels_cl(&rc, &sc.p, &sc.sd, &sc.fog, &sc.v, sc.depth, pix,
+                                                m, lst), FP_OK);
+        double cl_list = test_list_diff(a, pix, m, lst);
+        print_message("pixel list of %zu vs the whole frame: C %.3g, OpenCL %.3g (bounds 0, "
+                      "1e-6)\n", m, c_list, cl_list);
+        assert_true(cl_list <= 1e-6);
         sc.p.anim.seed = 12;
         assert_int_equal(fp_reference_process_cl(&rc, &sc.p, &sc.sd, &sc.fog, &sc.v, sc.depth, c),
                          FP_OK);
@@ -875,6 +889,9 @@ static void test_determinism(void **state)
     } else {
         print_message("no OpenCL device: C determinism only\n");
     }
+    assert_true(c_list == 0);
+    free(pix);
+    free(lst);
     free(a);
     free(b);
     free(c);

@@ -1136,6 +1136,23 @@ static void test_opencl_parity(void **state)
                       "or 1e-4\n", names[ci], sc.w, sc.h, max_ds, smax, max_dtau, max_rel, nans);
         if (failures)
             fail_msg("config %d: %ld values outside 2e-3 relative / 1e-4 absolute", ci, failures);
+        /* A pixel list (every 3rd pixel, out of order; --fog-edges exact)
+         * gets the values the whole frame gets, C and OpenCL. */
+        int *pix = malloc((npx / 3 + 1) * sizeof *pix);
+        float *lst = malloc((npx / 3 + 1) * 4 * sizeof *lst);
+        size_t m = test_pixel_list(npx, pix);
+        assert_int_equal(fp_scatter_pixels(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, pix, m, lst),
+                         FP_OK);
+        double c_list = test_list_diff(ref, pix, m, lst);
+        assert_int_equal(fp_scatter_pixels_cl(&scl, &icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth, pix,
+                                              m, lst), FP_OK);
+        double cl_list = test_list_diff(got, pix, m, lst);
+        print_message("pixel list of %zu vs the whole frame: C %.3g, OpenCL %.3g (bounds 0, "
+                      "1e-6)\n", m, c_list, cl_list);
+        assert_true(c_list == 0);
+        assert_true(cl_list <= 1e-6);
+        free(pix);
+        free(lst);
         /* Lit: ambient alone gives S.r <= albedo 0.3 = 0.27, the lights
          * add to it; with a finite haze the sun too (its share of S.r at
          * the brightest pixel above 0.5). */

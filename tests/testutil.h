@@ -55,4 +55,28 @@ static inline int make_view(fp_view_t *v, int w, int h, double cam_y, double pit
     return rc;
 }
 
+/* A pixel list for the fog stages' list launches: every 3rd pixel of an
+ * n-pixel frame, last first (out of order on purpose); pix has room for
+ * n / 3 + 1.  Returns its length. */
+static inline size_t test_pixel_list(size_t n, int *pix)
+{
+    size_t m = 0;
+    for (size_t k = 0; 3 * k < n; k++)
+        pix[m++] = (int)(n - 1 - 3 * k);
+    return m;
+}
+
+/* Largest |difference| between the list results got[4*k] and the frame's
+ * full[4 * pix[k]] (NaN counts as infinite). */
+static inline double test_list_diff(const float *full, const int *pix, size_t m, const float *got)
+{
+    double worst = 0;
+    for (size_t k = 0; k < m; k++)
+        for (int c = 0; c < 4; c++) {
+            double e = fabs((double)got[4 * k + c] - full[4 * (size_t)pix[k] + c]);
+            worst = isnan(e) ? INFINITY : fmax(worst, e);
+        }
+    return worst;
+}
+
 #endif
