@@ -2,14 +2,11 @@
 #include "fp.h"
 #include "options.h"
 
+#include "buffers_core.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* Below this share of the spatial weight, no low-resolution sample matches
- * the pixel's distance: the upsampling falls back to the nearest one.
- * Must match FP_UPSAMPLE_EPS in kernels/buffers.cl. */
-#define FP_UPSAMPLE_EPS 1e-3
 
 /* --fog-resolution 1 | 1/2 | 1/4, stored as the factor 1, 2, 4. */
 static int set_resolution(fp_params_t *p, const fp_option_t *o, const char *value)
@@ -110,80 +107,19 @@ void fp_depth_subsample(const float *depth, int w, int h, int f, float *out)
 
 double fp_buffers_range_weight(double d1, double d2, double range)
 {
-    int s1 = isinf(d1) != 0, s2 = isinf(d2) != 0;
-    if (s1 || s2)
-        return s1 && s2 ? 1 : 0;
-    double m = fmin(d1, d2);
-    if (!(m > 0))
-        return d1 == d2 ? 1 : 0;
-    double r = fabs(d1 - d2) / m / range;
-    return exp(-0.5 * r * r);
+    return fp_buf_range_weight(d1, d2, 1 / range);
 }
 
-/* One 1D pass along (dx, dy): weights g[|k|] times the range weight
- * against the center pixel; samples outside the frame are left out. */
-static void blur_pass(const double *g, int radius, double range, int w, int h,
-                      const float *dist, const float *in, float *out, int dx, int dy)
+/* One blur of the whole layer (a separable pass: rx or ry 0). */
+static void blur(int rx, int ry, double inv2s2, double range, int w, int h, const float *dist,
+                 const float *in, float *out)
 {
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
-            size_t c = (size_t)y * w + x;
-            double dc = dist[c], sum[4] = { 0, 0, 0, 0 }, ws = 0;
-            for (int k = -radius; k <= radius; k++) {
-                int xx = x + k * dx, yy = y + k * dy;
-                if (xx < 0 || xx >= w || yy < 0 || yy >= h)
-                    continue;
-                size_t j = (size_t)yy * w + xx;
-                double wt = g[abs(k)] * fp_buffers_range_weight(dc, dist[j], range);
-                if (wt == 0)
-                    continue;
-                for (int ch = 0; ch < 4; ch++)
-                    sum[ch] += wt * in[4 * j + ch];
-                ws += wt;
-            }
+            fp_real4 v = fp_buf_blur_pixel(in, dist, w, h, x, y, rx, ry, inv2s2, 1 / range);
             for (int ch = 0; ch < 4; ch++)
-                out[4 * c + ch] = (float)(sum[ch] / ws);
+                out[4 * ((size_t)y * w + x) + ch] = (float)v.c[ch];
         }
-}
-
-/* The full 2D kernel: weights g[|i|] g[|j|] times the range weight. */
-static void blur_full(const double *g, int radius, double range, int w, int h,
-                      const float *dist, const float *in, float *out)
-{
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            size_t c = (size_t)y * w + x;
-            double dc = dist[c], sum[4] = { 0, 0, 0, 0 }, ws = 0;
-            for (int ky = -radius; ky <= radius; ky++) {
-                int yy = y + ky;
-                if (yy < 0 || yy >= h)
-                    continue;
-                for (int kx = -radius; kx <= radius; kx++) {
-                    int xx = x + kx;
-                    if (xx < 0 || xx >= w)
-                        continue;
-                    size_t j = (size_t)yy * w + xx;
-                    double wt = g[abs(kx)] * g[abs(ky)] *
-                                fp_buffers_range_weight(dc, dist[j], range);
-                    if (wt == 0)
-                        continue;
-                    for (int ch = 0; ch < 4; ch++)
-                        sum[ch] += wt * in[4 * j + ch];
-                    ws += wt;
-                }
-            }
-            for (int ch = 0; ch < 4; ch++)
-                out[4 * c + ch] = (float)(sum[ch] / ws);
-        }
-}
-
-/* Share of the blur at guide distance d: 0 within D, 1 from 2 D on. */
-static double falloff_amount(double d, double falloff)
-{
-    if (!(falloff > 0))
-        return 1;
-    double a = (d - falloff) / falloff;
-    return a < 0 ? 0 : a > 1 ? 1 : a;
 }
 
 /* The option ranges, for callers that fill the parameters themselves. */
@@ -213,9 +149,7 @@ int fp_buffers_blur(const fp_buffers_params_t *b, int w, int h, const float *dis
         return FP_ERR;
     size_t n = (size_t)w * h;
     int radius = b->radius;
-    double sigma = fp_buffers_sigma(b), g[FP_BLUR_MAX_RADIUS + 1];
-    for (int k = 0; k <= radius; k++)
-        g[k] = exp(-0.5 * k * k / (sigma * sigma));
+    double sigma = fp_buffers_sigma(b), inv2s2 = 0.5 / (sigma * sigma);
     float *tmp = malloc(n * 4 * sizeof(float));
     float *orig = b->falloff > 0 ? malloc(n * 4 * sizeof(float)) : NULL;
     if (!tmp || (b->falloff > 0 && !orig)) {
@@ -227,46 +161,22 @@ int fp_buffers_blur(const fp_buffers_params_t *b, int w, int h, const float *dis
         memcpy(orig, fog, n * 4 * sizeof(float));
     for (int it = 0; it < b->iterations; it++) {
         if (b->separable) {
-            blur_pass(g, radius, b->range, w, h, dist, fog, tmp, 1, 0);
-            blur_pass(g, radius, b->range, w, h, dist, tmp, fog, 0, 1);
+            blur(radius, 0, inv2s2, b->range, w, h, dist, fog, tmp);
+            blur(0, radius, inv2s2, b->range, w, h, dist, tmp, fog);
         } else {
-            blur_full(g, radius, b->range, w, h, dist, fog, tmp);
+            blur(radius, radius, inv2s2, b->range, w, h, dist, fog, tmp);
             memcpy(fog, tmp, n * 4 * sizeof(float));
         }
     }
     if (orig)
         for (size_t i = 0; i < n; i++) {
-            double a = falloff_amount(dist[i], b->falloff);
+            double a = fp_buf_falloff(dist[i], b->falloff);
             for (int ch = 0; ch < 4; ch++)
                 fog[4 * i + ch] = (float)((1 - a) * orig[4 * i + ch] + a * fog[4 * i + ch]);
         }
     free(tmp);
     free(orig);
     return FP_OK;
-}
-
-/* Which sample to fall back on: the smallest relative difference of
- * distance; among equals (sky against geometry: all infinite), for a sky
- * pixel the farthest sample, else the spatially nearest. */
-static int nearer(double dp, double rel, double ds, double sd2, double best_rel,
-                  double best_ds, double best_sd2)
-{
-    if (rel != best_rel)
-        return rel < best_rel;
-    if (isinf(dp))
-        return ds > best_ds;
-    return sd2 < best_sd2;
-}
-
-static double rel_diff(double d1, double d2)
-{
-    int s1 = isinf(d1) != 0, s2 = isinf(d2) != 0;
-    if (s1 || s2)
-        return s1 && s2 ? 0 : INFINITY;
-    double m = fmin(d1, d2);
-    if (!(m > 0))
-        return d1 == d2 ? 0 : INFINITY;
-    return fabs(d1 - d2) / m;
 }
 
 size_t fp_upsample_edges(int f, double threshold, int w, int h, const float *dist, int *pix)
@@ -276,20 +186,9 @@ size_t fp_upsample_edges(int f, double threshold, int w, int h, const float *dis
         return 0;
     int lw = (w + f - 1) / f, lh = (h + f - 1) / f;
     for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            if (x % f == 0 && y % f == 0)
-                continue;   /* a sample: computed at its own ray already */
-            size_t p = (size_t)y * w + x;
-            int ci = x / f, cj = y / f;
-            /* Past the last sample column or row (a size not a multiple of
-             * f): the upsampling would extrapolate. */
-            int edge = (x % f && ci + 1 >= lw) || (y % f && cj + 1 >= lh);
-            for (int j = cj; j <= cj + 1 && j < lh && !edge; j++)
-                for (int i = ci; i <= ci + 1 && i < lw && !edge; i++)
-                    edge = rel_diff(dist[p], dist[(size_t)(f * j) * w + (size_t)f * i]) > threshold;
-            if (edge)
-                pix[n++] = (int)p;
-        }
+        for (int x = 0; x < w; x++)
+            if (fp_buf_edge_pixel(dist, f, w, lw, lh, x, y, threshold))
+                pix[n++] = y * w + x;
     return n;
 }
 
@@ -306,44 +205,9 @@ int fp_upsample(int f, double range, int w, int h, const float *dist, const floa
     double sig = 0.5 * f, inv2s2 = 1 / (2 * sig * sig);
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
-            size_t p = (size_t)y * w + x;
-            double dp = dist[p], sum[4] = { 0, 0, 0, 0 }, ws = 0, gs = 0;
-            double best_rel = INFINITY, best_ds = -INFINITY, best_sd2 = INFINITY;
-            size_t best = (size_t)-1;
-            int ci = x / f, cj = y / f;
-            for (int j = cj - 1; j <= cj + 2; j++) {
-                if (j < 0 || j >= lh)
-                    continue;
-                for (int i = ci - 1; i <= ci + 2; i++) {
-                    if (i < 0 || i >= lw)
-                        continue;
-                    size_t s = (size_t)j * lw + i;
-                    double ds = dist[(size_t)(f * j) * w + (size_t)f * i];
-                    double sx = x - f * i, sy = y - f * j, sd2 = sx * sx + sy * sy;
-                    double g = exp(-sd2 * inv2s2);
-                    double wt = g * fp_buffers_range_weight(dp, ds, range);
-                    gs += g;
-                    if (wt > 0) {
-                        for (int ch = 0; ch < 4; ch++)
-                            sum[ch] += wt * lo[4 * s + ch];
-                        ws += wt;
-                    }
-                    double rel = rel_diff(dp, ds);
-                    if (best == (size_t)-1 ||
-                        nearer(dp, rel, ds, sd2, best_rel, best_ds, best_sd2)) {
-                        best = s;
-                        best_rel = rel;
-                        best_ds = ds;
-                        best_sd2 = sd2;
-                    }
-                }
-            }
-            if (ws > FP_UPSAMPLE_EPS * gs)
-                for (int ch = 0; ch < 4; ch++)
-                    fog[4 * p + ch] = (float)(sum[ch] / ws);
-            else
-                for (int ch = 0; ch < 4; ch++)
-                    fog[4 * p + ch] = lo[4 * best + ch];
+            fp_real4 v = fp_buf_upsample_pixel(lo, dist, f, w, lw, lh, x, y, inv2s2, 1 / range);
+            for (int ch = 0; ch < 4; ch++)
+                fog[4 * ((size_t)y * w + x) + ch] = (float)v.c[ch];
         }
     return FP_OK;
 }
@@ -356,8 +220,7 @@ int fp_buffers_cl_init(fp_cl_t *cl, fp_buffers_cl_t *s)
     s->cl = cl;
     cl_program prog;
     if (fp_cl_program(cl, "buffers", "-cl-std=CL1.2", &prog) ||
-        fp_cl_kernel(prog, "blur_pass", &s->pass) || fp_cl_kernel(prog, "blur_full", &s->full) ||
-        fp_cl_kernel(prog, "blur_falloff", &s->falloff) ||
+        fp_cl_kernel(prog, "blur", &s->blur) || fp_cl_kernel(prog, "blur_falloff", &s->falloff) ||
         fp_cl_kernel(prog, "upsample_fog", &s->upsample))
         return FP_ERR;
     return FP_OK;
@@ -429,33 +292,22 @@ int fp_buffers_blur_cl(fp_buffers_cl_t *s, const fp_buffers_params_t *b, int w, 
     cl_int cw = w, ch = h, radius = b->radius;
     cl_float inv2s2 = (float)(0.5 / (sigma * sigma)), inv_range = (float)(1 / b->range);
     cl_mem cur = s->fog, other = s->tmp;
-    for (int it = 0; it < b->iterations; it++) {
-        if (b->separable) {
-            cl_kernel k = s->pass;
-            for (int pass = 0; pass < 2; pass++) {
-                cl_int dx = pass == 0, dy = pass == 1;
-                if (FP_CL_ARG(k, 0, cur) || FP_CL_ARG(k, 1, other) || FP_CL_ARG(k, 2, s->dist) ||
-                    FP_CL_ARG(k, 3, cw) || FP_CL_ARG(k, 4, ch) || FP_CL_ARG(k, 5, radius) ||
-                    FP_CL_ARG(k, 6, inv2s2) || FP_CL_ARG(k, 7, inv_range) ||
-                    FP_CL_ARG(k, 8, dx) || FP_CL_ARG(k, 9, dy) ||
-                    run_2d(s, k, w, h, "blur_pass"))
-                    return FP_ERR;
-                cl_mem t = cur;
-                cur = other;
-                other = t;
-            }
-        } else {
-            cl_kernel k = s->full;
+    /* Each iteration: a horizontal then a vertical pass, or the full
+     * kernel once. */
+    for (int it = 0; it < b->iterations; it++)
+        for (int pass = 0; pass < (b->separable ? 2 : 1); pass++) {
+            cl_kernel k = s->blur;
+            cl_int rx = b->separable && pass == 1 ? 0 : radius;
+            cl_int ry = b->separable && pass == 0 ? 0 : radius;
             if (FP_CL_ARG(k, 0, cur) || FP_CL_ARG(k, 1, other) || FP_CL_ARG(k, 2, s->dist) ||
-                FP_CL_ARG(k, 3, cw) || FP_CL_ARG(k, 4, ch) || FP_CL_ARG(k, 5, radius) ||
-                FP_CL_ARG(k, 6, inv2s2) || FP_CL_ARG(k, 7, inv_range) ||
-                run_2d(s, k, w, h, "blur_full"))
+                FP_CL_ARG(k, 3, cw) || FP_CL_ARG(k, 4, ch) || FP_CL_ARG(k, 5, rx) ||
+                FP_CL_ARG(k, 6, ry) || FP_CL_ARG(k, 7, inv2s2) || FP_CL_ARG(k, 8, inv_range) ||
+                run_2d(s, k, w, h, "blur"))
                 return FP_ERR;
             cl_mem t = cur;
             cur = other;
             other = t;
         }
-    }
     if (falloff) {
         cl_kernel k = s->falloff;
         cl_float d = (float)b->falloff;
@@ -515,7 +367,7 @@ int fp_upsample_cl(fp_buffers_cl_t *s, int f, double range, int w, int h, const 
 
 void fp_buffers_cl_release(fp_buffers_cl_t *s)
 {
-    cl_kernel *ks[] = { &s->pass, &s->full, &s->falloff, &s->upsample };
+    cl_kernel *ks[] = { &s->blur, &s->falloff, &s->upsample };
     for (size_t i = 0; i < FP_ARRAY_LEN(ks); i++)
         if (*ks[i])
             clReleaseKernel(*ks[i]);

@@ -19,7 +19,8 @@
  * range weight of two guide distances d1, d2 is exp(-r^2 / (2 range^2))
  * with r = |d1 - d2| / min(d1, d2).
  *
- * C reference in double (accumulation and weights; layers stored as float
+ * The per-pixel code is written once (kernels/buffers_core.h): the C
+ * reference in double (accumulation and weights; layers stored as float
  * between passes, as on the device), OpenCL in single precision
  * (kernels/buffers.cl). */
 #ifndef FP_BUFFERS_H
@@ -86,7 +87,7 @@ size_t fp_upsample_edges(int f, double threshold, int w, int h, const float *dis
 /* OpenCL state kept across frames (program, kernels, buffers). */
 typedef struct fp_buffers_cl_t {
     fp_cl_t *cl;
-    cl_kernel pass, full, falloff, upsample;
+    cl_kernel blur, falloff, upsample;
     cl_mem dist, fog, tmp, orig, lo;
     size_t capacity;      /* pixels the full-resolution buffers hold */
     size_t lo_capacity;   /* pixels the low-resolution buffer holds */

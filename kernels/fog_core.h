@@ -16,13 +16,9 @@
 #ifndef FP_FOG_CORE_H
 #define FP_FOG_CORE_H
 
+#include "fp_real.h"
+
 #ifdef __OPENCL_VERSION__
-typedef float fp_real;
-#define FP_CONSTANT __constant
-#define FP_TABLE __constant
-#define FP_GLOBAL __global
-#define FP_FN inline
-#define FP_INF INFINITY
 #ifndef FP_GL_EXTRA
 #define FP_GL_EXTRA 0
 #endif
@@ -30,13 +26,6 @@ typedef float fp_real;
 #define FP_EXP_STEP 0.5f
 #endif
 #else
-#include <math.h>
-typedef double fp_real;
-#define FP_CONSTANT const
-#define FP_TABLE static const
-#define FP_GLOBAL
-#define FP_FN static inline
-#define FP_INF INFINITY
 #ifndef FP_GL_EXTRA
 #define FP_GL_EXTRA 2
 #endif

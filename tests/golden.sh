@@ -25,7 +25,8 @@ fogmap-quadratic|$FM --basis quadratic
 fogmap-cubic|$FM --basis cubic --haze 0.002
 preset-mist|--preset $P/morning-valley-mist.preset --shadow-map $FP_SAMPLES/shadow.####.exr
 preset-shafts|--preset $P/low-sun-shafts.preset --shadow-map $FP_SAMPLES/shadow.####.exr
-preset-lamps|--preset $P/night-street-lamps.preset"
+preset-lamps|--preset $P/night-street-lamps.preset
+buffers|--preset $P/low-sun-shafts.preset --shadow-map $FP_SAMPLES/shadow.####.exr --fog-resolution 1/2 --blur bilateral --blur-radius 3 --blur-falloff 4"
 names=$(echo "$cases" | cut -d'|' -f1)
 
 echo "$cases" | while IFS='|' read -r name opts; do
