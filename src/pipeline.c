@@ -197,10 +197,9 @@ static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
 }
 
 /* The fog layer of a view (the frame's, or its strided sub-view for
- * --fog-resolution): the Monte Carlo reference, light in the fog, or the
- * extinction with ambient fog alone. */
-/* The fog layer of the view's frame (pix NULL) or of its npix pixels
- * pix[] (into fog[4*k], list order), by the chosen integrator. */
+ * --fog-resolution), whole (pix NULL) or at its npix pixels pix[] (into
+ * fog[4*k], list order): the Monte Carlo reference, light in the fog, or
+ * the extinction with ambient fog alone. */
 static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, const int *pix,
                        size_t npix, float *fog)
 {
