@@ -257,6 +257,18 @@ static int ensure_capacity(fp_buffers_cl_t *s, size_t n)
     return FP_OK;
 }
 
+/* The guide (n pixels) and a layer of `pixels` pixels to the device;
+ * blocking, so the caller's buffers need not outlive the call. */
+static int upload_layer(fp_buffers_cl_t *s, size_t n, const float *dist, cl_mem layer,
+                        size_t pixels, const float *data, const char *what)
+{
+    cl_command_queue q = fp_cl_queue(s->cl);
+    return fp_cl_check(clEnqueueWriteBuffer(q, s->dist, CL_TRUE, 0, n * sizeof(float), dist, 0,
+                                            NULL, NULL), "buffers: upload distance") ||
+           fp_cl_check(clEnqueueWriteBuffer(q, layer, CL_TRUE, 0, pixels * 4 * sizeof(float),
+                                            data, 0, NULL, NULL), what);
+}
+
 static int run_2d(fp_buffers_cl_t *s, cl_kernel k, int w, int h, const char *what)
 {
     size_t local[2] = { 16, 8 };
@@ -277,11 +289,7 @@ int fp_buffers_blur_cl(fp_buffers_cl_t *s, const fp_buffers_params_t *b, int w, 
     if (ensure_capacity(s, n))
         return FP_ERR;
     cl_command_queue q = fp_cl_queue(s->cl);
-    /* Blocking uploads: the caller's buffers need not outlive this call. */
-    if (fp_cl_check(clEnqueueWriteBuffer(q, s->dist, CL_TRUE, 0, n * sizeof(float), dist, 0,
-                                         NULL, NULL), "buffers: upload distance") ||
-        fp_cl_check(clEnqueueWriteBuffer(q, s->fog, CL_TRUE, 0, n * 4 * sizeof(float), fog, 0,
-                                         NULL, NULL), "buffers: upload fog"))
+    if (upload_layer(s, n, dist, s->fog, n, fog, "buffers: upload fog"))
         return FP_ERR;
     int falloff = b->falloff > 0;
     if (falloff && fp_cl_check(clEnqueueCopyBuffer(q, s->fog, s->orig, 0, 0,
@@ -347,10 +355,7 @@ int fp_upsample_cl(fp_buffers_cl_t *s, int f, double range, int w, int h, const 
         s->lo_capacity = ln;
     }
     cl_command_queue q = fp_cl_queue(s->cl);
-    if (fp_cl_check(clEnqueueWriteBuffer(q, s->dist, CL_TRUE, 0, n * sizeof(float), dist, 0,
-                                         NULL, NULL), "buffers: upload distance") ||
-        fp_cl_check(clEnqueueWriteBuffer(q, s->lo, CL_TRUE, 0, ln * 4 * sizeof(float), lo, 0,
-                                         NULL, NULL), "buffers: upload low-resolution fog"))
+    if (upload_layer(s, n, dist, s->lo, ln, lo, "buffers: upload low-resolution fog"))
         return FP_ERR;
     double sig = 0.5 * f;
     cl_int cf = f, cw = w, ch = h, clw = lw, clh = lh;
