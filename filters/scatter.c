@@ -450,6 +450,8 @@ void fp_scatter_release(fp_scatter_data_t *d)
     free(d->smap);
     free(d->grid);
     d->smap = d->grid = NULL;
+    d->grid_n = 0;
+    d->grid_key.valid = 0;
 }
 
 double fp_scatter_ray_at(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
@@ -498,6 +500,23 @@ static int fill_grid(fp_scatter_data_t *d, const fp_integrate_data_t *fog)
     return FP_OK;
 }
 
+/* 1 when the grid filled from k is the one d and fog ask for; else k
+ * becomes theirs (the caller fills the grid, and clears k->valid if that
+ * fails). */
+static int grid_current(fp_grid_key_t *k, const fp_scatter_data_t *d,
+                        const fp_integrate_data_t *fog)
+{
+    unsigned long tables = fog->tables ? fog->tables->serial : 0;
+    if (k->valid && k->tables == tables && memcmp(k->lt, d->lt, sizeof k->lt) == 0 &&
+        memcmp(k->fp, fog->fp, sizeof k->fp) == 0)
+        return 1;
+    k->valid = 1;
+    k->tables = tables;
+    memcpy(k->lt, d->lt, sizeof k->lt);
+    memcpy(k->fp, fog->fp, sizeof k->fp);
+    return 0;
+}
+
 static int uses_grid(const fp_scatter_data_t *d)
 {
     return (int)d->lt[FP_LT_SELF] == FP_SELF_MAP && d->lt[FP_LT_SUN_ON] != 0;
@@ -513,8 +532,11 @@ int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
                       const fp_view_t *v, const float *depth, const int *pix, size_t npix,
                       float *out)
 {
-    if (uses_grid(d) && fill_grid((fp_scatter_data_t *)d, fog))
+    fp_scatter_data_t *dw = (fp_scatter_data_t *)d;   /* the grid is a cache of d */
+    if (uses_grid(d) && !grid_current(&dw->grid_key, d, fog) && fill_grid(dw, fog)) {
+        dw->grid_key.valid = 0;
         return FP_ERR;
+    }
     float view[FP_VIEW_FLOATS];
     fp_view_pack(v, view);
     for (size_t k = 0; k < npix; k++) {
@@ -572,6 +594,7 @@ static int upload(fp_scatter_cl_t *s, const fp_scatter_data_t *d)
     if (!s->grid || s->grid_n != ng) {
         if (s->grid)
             clReleaseMemObject(s->grid);
+        s->grid_key.valid = 0;
         s->grid = clCreateBuffer(ctx, CL_MEM_READ_WRITE, ng * sizeof(float), NULL, &err);
         if (fp_cl_check(err, "scatter: self-shadow grid"))
             return FP_ERR;
@@ -595,7 +618,7 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
     if (fp_integrate_cl_prepare(ic, fog, v, depth) || upload(s, d))
         return FP_ERR;
     cl_command_queue q = fp_cl_queue(s->cl);
-    if (uses_grid(d)) {
+    if (uses_grid(d) && !grid_current(&s->grid_key, d, fog)) {
         cl_kernel g = s->grid_kernel;
         size_t global[3] = { (size_t)d->lt[FP_LT_GRID_N], (size_t)d->lt[FP_LT_GRID_N + 1],
                              (size_t)d->lt[FP_LT_GRID_N + 2] };
@@ -603,8 +626,10 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
             FP_CL_ARG(g, 3, ic->lvf) || FP_CL_ARG(g, 4, ic->coef) || FP_CL_ARG(g, 5, ic->occ) ||
             FP_CL_ARG(g, 6, s->lt) ||
             fp_cl_check(clEnqueueNDRangeKernel(q, g, 3, NULL, global, NULL, 0, NULL, NULL),
-                        "sun_od_grid"))
+                        "sun_od_grid")) {
+            s->grid_key.valid = 0;
             return FP_ERR;
+        }
     }
     cl_kernel k = s->kernel;
     if (FP_CL_ARG(k, 12, s->lt) || FP_CL_ARG(k, 13, s->smap) || FP_CL_ARG(k, 14, s->grid))

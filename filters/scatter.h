@@ -18,6 +18,17 @@
 
 /* Per run (commit) and per frame (fp_scatter_frame): the light parameters
  * and the frame's shadow map and self-shadow grid. */
+/* What a self-shadow grid (--self-shadow map) was filled from.  The grid
+ * is a function of the light parameters, the fog parameters and the
+ * fogmap tables alone, so it is filled again only when one of them
+ * changed: the depth-edge pass of --fog-edges reuses the frame's, and a
+ * still camera over still fog keeps it from frame to frame. */
+typedef struct fp_grid_key_t {
+    int valid;
+    double lt[FP_LT_COUNT_], fp[FP_F_COUNT_];
+    unsigned long tables;     /* serial of the fogmap tables (0: none) */
+} fp_grid_key_t;
+
 typedef struct fp_scatter_data_t {
     int active;               /* anything beyond ambient fog with albedo 1 */
     double lt[FP_LT_COUNT_];  /* FP_LT_* */
@@ -28,6 +39,7 @@ typedef struct fp_scatter_data_t {
      * the sun at each node. */
     float *grid;
     size_t grid_n;
+    fp_grid_key_t grid_key;   /* what grid holds */
     unsigned long serial;     /* changes when smap or grid change (device copies) */
 } fp_scatter_data_t;
 
@@ -68,6 +80,7 @@ typedef struct fp_scatter_cl_t {
     fp_cl_t *cl;
     cl_kernel kernel, grid_kernel;
     cl_mem lt, smap, grid;
+    fp_grid_key_t grid_key;   /* what grid holds */
     size_t grid_n;
     unsigned long uploaded;   /* serial of smap/grid on the device */
 } fp_scatter_cl_t;

@@ -1151,6 +1151,32 @@ static void test_opencl_parity(void **state)
                       "1e-6)\n", m, c_list, cl_list);
         assert_true(c_list == 0);
         assert_true(cl_list <= 1e-6);
+        if (ci > 0) {
+            /* The self-shadow grid is kept while what it depends on stays
+             * (the list launches above reused it): denser fog fills it
+             * again, the same as a grid forced to refill. */
+            size_t bytes = m * 4 * sizeof(float);
+            float *again = malloc(bytes), *forced = malloc(bytes);
+            sc.r.fog.fp[FP_F_SIGMA] *= 2;
+            for (int dev = 0; dev < 2; dev++) {
+                fp_grid_key_t *key = dev ? &scl.grid_key : &sc.r.sd.grid_key;
+                for (int k = 0; k < 2; k++) {
+                    if (k)
+                        key->valid = 0;
+                    float *out = k ? forced : again;
+                    assert_int_equal(dev ? fp_scatter_pixels_cl(&scl, &icl, &sc.r.sd, &sc.r.fog,
+                                                                &sc.v, sc.depth, pix, m, out)
+                                         : fp_scatter_pixels(&sc.r.sd, &sc.r.fog, &sc.v,
+                                                             sc.depth, pix, m, out), FP_OK);
+                }
+                assert_memory_equal(again, forced, bytes);
+                assert_true(test_list_diff(dev ? got : ref, pix, m, again) > 1e-3);
+            }
+            print_message("self-shadow grid kept between launches, filled again when the fog "
+                          "changes (C and OpenCL)\n");
+            free(again);
+            free(forced);
+        }
         free(pix);
         free(lst);
         /* Lit: ambient alone gives S.r <= albedo 0.3 = 0.27, the lights
