@@ -1,4 +1,5 @@
 #include "animate.h"
+#include "fogmap.h"
 #include "fp.h"
 #include "oiio_bridge.h"
 #include "options.h"
@@ -300,6 +301,7 @@ typedef struct frame_sig_t {
 struct fp_animate_t {
     char *pattern, *channel;
     int w, h, degree, levels, wrap;
+    double od_scale;           /* fp_fogmap_od_scale: checks the keys' values */
     float *base;
     fp_fogmap_t geom;          /* geometry and filters only (no coefficients) */
     double *field;             /* turbulence, dom_w x dom_h */
@@ -401,15 +403,6 @@ static int decompose(fp_animate_t *a, fp_cl_t *cl, const float *img, fp_fogmap_t
     return rc;
 }
 
-static int check_pixels(const char *name, const float *img, int w, int h)
-{
-    for (size_t i = 0; i < (size_t)w * h; i++)
-        if (!(img[i] >= 0) || isinf(img[i]))
-            return fp_error("%s: pixel (%zu, %zu) is %g (expected finite values >= 0)", name,
-                            i % (size_t)w, i / (size_t)w, img[i]);
-    return FP_OK;
-}
-
 /* A key of the sequence, loaded (and decomposed when `need_map`), from the
  * little cache of recent keys; `keep` is a slot not to evict. */
 static int get_key(fp_animate_t *a, fp_cl_t *cl, long at, long frame, int need_map,
@@ -447,7 +440,8 @@ static int get_key(fp_animate_t *a, fp_cl_t *cl, long at, long frame, int need_m
                             "key is %dx%d (the keys of a fogmap sequence must have one size)",
                             path, at, frame, w, h, a->w, a->h);
         }
-        if ((rc = check_pixels(path, s->img, w, h))) {
+        fp_fogmap_clamp_negative(path, s->img, w, h);
+        if ((rc = fp_fogmap_check_values(path, s->img, w, h, a->od_scale))) {
             free(s->img);
             s->img = NULL;
             return rc;
@@ -633,6 +627,7 @@ int fp_animate_open(const fp_params_t *p, const float *base, int w, int h,
     a->interp = ap->interp;
     a->turbulence = ap->turbulence;
     a->speed = ap->turbulence_speed;
+    a->od_scale = fp_fogmap_od_scale(p, w, h);
     a->seed = (unsigned)ap->seed;
     a->advect = ap->advect;
     a->start = ap->advect_start;

@@ -114,6 +114,23 @@ check "a constant fogmap (repeat) equals homogeneous fog" sh -c '
 fails "missing fogmap" 1 "nofog.png" "$T/o9.exr" "$FOGPIPE" --fogmap "$T/nofog.png" -i "$S/scene.0001.exr" -o "$T/o9.exr"
 fails "bad --fog-rect" 2 "fog-rect" "$T/o10.exr" "$FOGPIPE" --fogmap "$FMAP" --fog-rect 5,0,1,1 -i "$S/scene.0001.exr" -o "$T/o10.exr"
 fails "unknown basis" 2 "basis.*expected haar.linear" - "$FOGPIPE" --basis septic
+# Fogmaps from noise dip below 0: clamped to 0 (as an offline renderer
+# clamps density) with one warning; a huge value (a corrupt file) is refused,
+# where it once turned every pixel into NaN.
+"$OIIOTOOL" --pattern constant:color=0.5 16x16 1 --fill:color=-0.25 2x2+3+3 --fill:color=-0.5 1x1+9+9 -d float -o "$T/neg.exr"
+"$OIIOTOOL" --pattern constant:color=0.5 16x16 1 --fill:color=0 2x2+3+3 --fill:color=0 1x1+9+9 -d float -o "$T/neg0.exr"
+check "negative fogmap values: clamped to 0, one warning with the count and the lowest" sh -c '
+  "$FOGPIPE" --float --fogmap "$1" --density 0.1 -i "$3" -o "$4/neg-out.exr" 2> "$4/neg.txt" &&
+  test "$(wc -l < "$4/neg.txt")" = 1 && grep -q "5 pixels below 0 (the lowest -0.5) clamped to 0" "$4/neg.txt" &&
+  "$FOGPIPE" --float --fogmap "$2" --density 0.1 -i "$3" -o "$4/neg0-out.exr" &&
+  "$IDIFF" -q -fail 0 "$4/neg-out.exr" "$4/neg0-out.exr"' sh "$T/neg.exr" "$T/neg0.exr" "$S/scene.0001.exr" "$T"
+"$OIIOTOOL" --pattern constant:color=0.5 16x16 1 --fill:color=3e38 2x2+3+3 -d float -o "$T/huge.exr"
+fails "a fogmap value whose optical depth overflows is refused (it gave NaN)" 1 \
+  "huge.exr: pixel \(3, 3\) is 3e\+38.*optical depth across one fogmap pixel" "$T/o11.exr" \
+  "$FOGPIPE" --fogmap "$T/huge.exr" --density 0.1 -i "$S/scene.0001.exr" -o "$T/o11.exr"
+mkdir -p "$T/hseq"; cp "$T/neg0.exr" "$T/hseq/fog.0001.exr"; cp "$T/huge.exr" "$T/hseq/fog.0003.exr"
+fails "the same in a key of a fogmap sequence, named" 1 "fog.0003.exr: pixel \(3, 3\) is 3e\+38" "$T/o12.0002.exr" \
+  "$FOGPIPE" --fogmap "$T/hseq/fog.####.exr" --density 0.1 -i "$S/scene.####.exr" --frames 2 -o "$T/o12.####.exr"
 
 # --sky keep: a frame of sky only (depth 1e30) comes out as it went in,
 # with the sun lighting the fog; --sky fog (the default) fogs it.
