@@ -19,6 +19,8 @@ int main(int argc, char **argv)
     }
     fp_quiet = p.io.quiet;
     fp_verbose = p.io.verbose;
+    if (p.io.preset)
+        fp_info("preset: %s", p.io.preset);
     if (p.cmd.help || p.cmd.help_markdown) {
         fp_options_print_help(stdout, p.cmd.help_markdown);
         rc = FP_OK;

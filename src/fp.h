@@ -50,6 +50,10 @@ fp_msgbuf_t *fp_msg_capture(fp_msgbuf_t *sink);
 void fp_msg_flush(fp_msgbuf_t *b);
 void fp_msg_free(fp_msgbuf_t *b);
 
+/* The directory of the running executable into `dir` (n bytes); 0 when it
+ * is known, -1 otherwise (dir then ""). */
+int fp_exe_dir(char *dir, size_t n);
+
 /* A frame's label for messages: "shot.0012.exr" or "<stdin> frame 3". */
 typedef struct fp_where_t {
     const char *file;   /* file name or "<stdin>" */

@@ -74,13 +74,9 @@ bool readable(const std::string &p)
 // The directory of the running executable, "" if unknown.
 std::string exe_dir()
 {
-    std::vector<char> buf(4096);
-    ssize_t len = readlink("/proc/self/exe", buf.data(), buf.size() - 1);
-    if (len <= 0)
-        return "";
-    std::string p(buf.data(), (size_t)len);
-    size_t slash = p.rfind('/');
-    return slash == std::string::npos ? "" : p.substr(0, slash);
+    char dir[4096];
+    fp_exe_dir(dir, sizeof dir);
+    return dir;
 }
 
 // "a, b, c, ..." of at most `max` names, for messages.

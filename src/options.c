@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 #include "config.h"
 
@@ -313,13 +314,50 @@ static char *trim(char *s)
     return s;
 }
 
-int fp_options_load_preset(fp_params_t *p, const char *path)
+/* --preset NAME (no '/', no ".preset"): NAME.preset next to the binary's
+ * install (../share/fogpipe/presets, so a moved install works), in the
+ * configured install directory, or in the source tree (a build tree's
+ * binary).  Anything else is a file name. */
+static int find_preset(const char *arg, char *path, size_t n)
 {
+    size_t len = strlen(arg);
+    if (strchr(arg, '/') || (len > 7 && strcmp(arg + len - 7, ".preset") == 0) ||
+        access(arg, F_OK) == 0) {
+        snprintf(path, n, "%s", arg);
+        return FP_OK;
+    }
+    char exe[4096], tried[4][4200];
+    int nt = 0;
+    if (fp_exe_dir(exe, sizeof exe) == 0)
+        snprintf(tried[nt++], sizeof tried[0], "%s/../share/fogpipe/presets/%s.preset", exe, arg);
+    snprintf(tried[nt++], sizeof tried[0], "%s/%s.preset", FP_PRESETS_DIR, arg);
+    snprintf(tried[nt++], sizeof tried[0], "%s/%s.preset", FP_PRESETS_SRCDIR, arg);
+    for (int i = 0; i < nt; i++)
+        if (access(tried[i], R_OK) == 0) {
+            snprintf(path, n, "%.4199s", tried[i]);
+            return FP_OK;
+        }
+    return fp_usage_error("--preset %s: no such file, and no preset of that name (looked for "
+                          "%s.preset in %s and %s; fogpipe's own: morning-valley-mist, "
+                          "low-sun-shafts, night-street-lamps)", arg, arg, FP_PRESETS_DIR,
+                          FP_PRESETS_SRCDIR);
+}
+
+int fp_options_load_preset(fp_params_t *p, const char *arg)
+{
+    char path[4300];
+    int rc = find_preset(arg, path, sizeof path);
+    if (rc)
+        return rc;
+    /* Kept for -v, which is not parsed yet. */
+    free(p->io.preset);
+    if (!(p->io.preset = strdup(path)))
+        return fp_error("out of memory");
     FILE *f = fopen(path, "r");
     if (!f)
         return fp_usage_error("%s: cannot open preset (%s)", path, strerror(errno));
     char line[4096];
-    int lineno = 0, rc = FP_OK;
+    int lineno = 0;
     while (rc == FP_OK && fgets(line, sizeof line, f)) {
         lineno++;
         char *s = trim(line);
@@ -361,7 +399,7 @@ int fp_options_parse(int argc, char **argv, fp_params_t *p)
         const char *file = NULL;
         if (strcmp(a, "--preset") == 0) {
             if (i + 1 >= argc)
-                return fp_usage_error("command line: --preset needs a FILE");
+                return fp_usage_error("command line: --preset needs a NAME or FILE");
             file = argv[++i];
         } else if (strncmp(a, "--preset=", 9) == 0) {
             file = a + 9;

@@ -52,8 +52,9 @@ const fp_option_t fp_io_options[] = {
     { "cpu", 0, FP_OPT_FLAG, IO(cpu), 0, 0, NULL, 0, 1, NULL, NULL,
       "compute with the C double-precision reference instead of OpenCL (slow; for checks)",
       NULL, 0 },
-    { "preset", 0, FP_OPT_STRING, IO(preset), 0, 0, NULL, 0, 0, NULL, "FILE",
-      "read options from FILE (key = value lines); the command line wins", NULL,
+    { "preset", 0, FP_OPT_STRING, IO(preset), 0, 0, NULL, 0, 0, NULL, "NAME|FILE",
+      "a named look (morning-valley-mist, low-sun-shafts, night-street-lamps) or a FILE of "
+      "key = value lines; the command line wins", NULL,
       FP_OPTF_CLI_ONLY },
     { "quiet", 'q', FP_OPT_FLAG, IO(quiet), 0, 0, NULL, 0, 1, NULL, NULL,
       "no warnings or progress on stderr", NULL, 0 },

@@ -91,6 +91,12 @@ check "--camera-chan" sh -c '"$FOGPIPE" --print-camera -i "$1" --camera-chan "$2
 # Presets: key = value lines; the command line wins.
 printf 'density = 0.5\nfog-color = 1,0,0\n' > "$T/look.preset"
 check "--preset" "$FOGPIPE" --preset "$T/look.preset" --density 0.02 -i "$S/scene.0001.exr" -o "$T/preset.exr"
+check "--preset NAME from the build tree is the shipped file" sh -c '
+  "$FOGPIPE" --preset low-sun-shafts -i "$1" -o "$3/preset-name.exr" &&
+  "$FOGPIPE" --preset "$2/samples/presets/low-sun-shafts.preset" -i "$1" -o "$3/preset-file.exr" &&
+  "$IDIFF" -q -fail 0 "$3/preset-name.exr" "$3/preset-file.exr"' sh "$S/scene.0001.exr" "$FP_SRCDIR" "$T"
+fails "--preset with an unknown name: the names there are" 2 "preset nosuch: no such file.*low-sun-shafts" \
+  "$T/preset-bad.exr" "$FOGPIPE" --preset nosuch -i "$S/scene.0001.exr" -o "$T/preset-bad.exr"
 check "command line wins over the preset" sh -c '"$FOGPIPE" --fog-color 1,0,0 -i "$1" -o "$2" &&
   "$IDIFF" -q -fail 0 "$2" "$3"' sh "$S/scene.0001.exr" "$T/preset-cli.exr" "$T/preset.exr"
 
@@ -126,11 +132,11 @@ check "negative fogmap values: clamped to 0, one warning with the count and the 
   "$IDIFF" -q -fail 0 "$4/neg-out.exr" "$4/neg0-out.exr"' sh "$T/neg.exr" "$T/neg0.exr" "$S/scene.0001.exr" "$T"
 "$OIIOTOOL" --pattern constant:color=0.5 16x16 1 --fill:color=3e38 2x2+3+3 -d float -o "$T/huge.exr"
 fails "a fogmap value whose optical depth overflows is refused (it gave NaN)" 1 \
-  "huge.exr: pixel \(3, 3\) is 3e\+38.*optical depth across one fogmap pixel" "$T/o11.exr" \
-  "$FOGPIPE" --fogmap "$T/huge.exr" --density 0.1 -i "$S/scene.0001.exr" -o "$T/o11.exr"
+  "huge.exr: pixel \(3, 3\) is 3e\+38.*optical depth across one fogmap pixel" "$T/o-huge.exr" \
+  "$FOGPIPE" --fogmap "$T/huge.exr" --density 0.1 -i "$S/scene.0001.exr" -o "$T/o-huge.exr"
 mkdir -p "$T/hseq"; cp "$T/neg0.exr" "$T/hseq/fog.0001.exr"; cp "$T/huge.exr" "$T/hseq/fog.0003.exr"
-fails "the same in a key of a fogmap sequence, named" 1 "fog.0003.exr: pixel \(3, 3\) is 3e\+38" "$T/o12.0002.exr" \
-  "$FOGPIPE" --fogmap "$T/hseq/fog.####.exr" --density 0.1 -i "$S/scene.####.exr" --frames 2 -o "$T/o12.####.exr"
+fails "the same in a key of a fogmap sequence, named" 1 "fog.0003.exr: pixel \(3, 3\) is 3e\+38" "$T/o-hseq.0002.exr" \
+  "$FOGPIPE" --fogmap "$T/hseq/fog.####.exr" --density 0.1 -i "$S/scene.####.exr" --frames 2 -o "$T/o-hseq.####.exr"
 
 # --sky keep: a frame of sky only (depth 1e30) comes out as it went in,
 # with the sun lighting the fog; --sky fog (the default) fogs it.
@@ -166,6 +172,10 @@ fails "bad --light" 2 "light.*expected point" - "$FOGPIPE" --light lamp:1,2,3
 if [ -n "${FP_BUILDDIR:-}" ] && env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install DESTDIR="$T/dest" prefix=/opt/fp >"$T/install.txt" 2>&1; then
   check "installed fogpipe runs from / with embedded kernels" sh -c 'cd / &&
     "$1/opt/fp/bin/fogpipe" -i "$2" -o "$3"' sh "$T/dest" "$S/scene.0001.exr" "$T/installed.exr"
+  check "installed fogpipe finds --preset NAME beside itself" sh -c 'cd / &&
+    "$1/opt/fp/bin/fogpipe" -v --preset night-street-lamps -i "$2" -o "$3" 2>&1 |
+    grep -q "preset: $1/opt/fp/bin/../share/fogpipe/presets/night-street-lamps.preset"' \
+    sh "$T/dest" "$S/scene.0001.exr" "$T/installed-preset.exr"
 else
   not_ok "make install DESTDIR"; diag "$T/install.txt" 2>/dev/null || true
 fi
