@@ -23,6 +23,9 @@ const fp_option_t fp_preview_options[] = {
       NULL, 0 },
     { "contact-sheet-columns", 0, FP_OPT_INT, PV(columns), 0, 0, "0", 0, 10000, NULL, "N",
       "columns of the contact sheet (0: ceil(sqrt(frames)))", NULL, 0 },
+    { "contact-sheet-size", 0, FP_OPT_INT, PV(sheet_size), 0, 0, "4096", 16, 65536, NULL, "PIXELS",
+      "the contact sheet's longer side at most this: the previews are scaled down to fit",
+      NULL, 0 },
     FP_OPT_END
 };
 
@@ -39,7 +42,8 @@ static int check_name(const char *what, const char *name)
     if (!known)
         return fp_usage_error("%s %s: expected a .png, .jpg or .tif file name", what, name);
     if (slash) {
-        /* The directory must be there before the first frame is written. */
+        /* A missing directory is made when the first preview is written;
+         * a file in its place is refused before any frame. */
         char dir[4096];
         size_t len = (size_t)(slash - name);
         struct stat st;
@@ -47,10 +51,9 @@ static int check_name(const char *what, const char *name)
             return fp_usage_error("%s %s: name too long", what, name);
         memcpy(dir, name, len);
         dir[len] = 0;
-        if (len > 0 && fp_seq_has_placeholder(dir) == 0 &&
-            (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode)))
-            return fp_error("%s %s: no directory %s (%s)", what, name, dir,
-                            stat(dir, &st) != 0 ? strerror(errno) : "not a directory");
+        if (len > 0 && fp_seq_has_placeholder(dir) == 0 && stat(dir, &st) == 0 &&
+            !S_ISDIR(st.st_mode))
+            return fp_error("%s %s: %s is not a directory", what, name, dir);
     }
     return FP_OK;
 }
@@ -62,6 +65,7 @@ int fp_preview_commit(const fp_params_t *p, fp_preview_t *s)
     s->pattern = p->preview.preview;
     s->sheet = p->preview.contact_sheet;
     s->columns = p->preview.columns;
+    s->sheet_size = p->preview.sheet_size;
     if (s->sheet && !s->pattern)
         return fp_usage_error("--contact-sheet %s needs --preview PATTERN (the sheet tiles the "
                               "previews)", s->sheet);
@@ -104,7 +108,8 @@ int fp_preview_frame(fp_preview_t *s, const fp_color_frame_t *cf, const float *r
             rgb[3 * i + c] = rgba[4 * i + c];
     if (cf->to_display)
         fp_ocio_apply(cf->to_display, rgb, n, 3);
-    rc = fp_oiio_write_preview(path, rgb, w, h, 3, 8, 1);
+    if ((rc = fp_make_parent_dir(path, frame)) == FP_OK)
+        rc = fp_oiio_write_preview(path, rgb, w, h, 3, 8, 1);
     free(rgb);
     if (rc || !s->sheet)
         return rc;
@@ -159,7 +164,10 @@ int fp_preview_finish(fp_preview_t *s)
         return fp_error("%s: out of memory", s->sheet);
     for (size_t i = 0; i < s->n; i++)
         paths[i] = s->done[i].path;
-    int rc = fp_oiio_tile_sheet(paths, (int)s->n, fp_preview_columns(s->columns, s->n), s->sheet);
+    int rc = fp_make_parent_dir(s->sheet, s->done[s->n - 1].frame);
+    if (rc == FP_OK)
+        rc = fp_oiio_tile_sheet(paths, (int)s->n, fp_preview_columns(s->columns, s->n),
+                                s->sheet_size, s->sheet);
     free(paths);
     if (rc == FP_OK)
         fp_info("%s: contact sheet of %zu previews", s->sheet, s->n);

@@ -26,7 +26,7 @@ typedef struct fp_preview_done_t {
 typedef struct fp_preview_t {
     const char *pattern;        /* --preview, NULL: none */
     const char *sheet;          /* --contact-sheet, NULL: none */
-    int columns;
+    int columns, sheet_size;
     pthread_mutex_t lock;
     int lock_ok;
     fp_preview_done_t *done;    /* previews written, for the sheet */

@@ -683,25 +683,11 @@ static char *cache_dir(void)
         fp_error("out of memory");
         return NULL;
     }
-    /* mkdir -p */
-    for (char *p = dir + 1;; p++) {
-        if (*p != '/' && *p != '\0')
-            continue;
-        char c = *p;
-        *p = '\0';
-        struct stat st;
-        int bad = mkdir(dir, 0777) != 0 && errno != EEXIST &&
-                  !(stat(dir, &st) == 0 && S_ISDIR(st.st_mode));
-        int e = errno;
-        *p = c;
-        if (bad) {
-            fp_warn("%s: cannot create the OpenCL program cache directory (%s); cache off",
-                    dir, strerror(e));
-            free(dir);
-            return NULL;
-        }
-        if (c == '\0')
-            break;
+    if (fp_mkdir_p(dir) != 0 && errno != ENOTDIR) {
+        fp_warn("%s: cannot create the OpenCL program cache directory (%s); cache off", dir,
+                strerror(errno));
+        free(dir);
+        return NULL;
     }
     struct stat st;
     if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode)) {

@@ -1,7 +1,9 @@
 #include "fp.h"
 
 #include <stdlib.h>
+#include <errno.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 int fp_quiet = 0;
@@ -115,4 +117,54 @@ int fp_exe_dir(char *dir, size_t n)
     memcpy(dir, buf, (size_t)(slash - buf));
     dir[slash - buf] = 0;
     return 0;
+}
+
+int fp_mkdir_p(const char *dir)
+{
+    char buf[4096];
+    size_t len = strlen(dir);
+    struct stat st;
+    if (len == 0 || len >= sizeof buf) {
+        errno = len ? ENAMETOOLONG : ENOENT;
+        return -1;
+    }
+    memcpy(buf, dir, len + 1);
+    for (char *p = buf + 1;; p++) {
+        if (*p != '/' && *p != '\0')
+            continue;
+        char c = *p;
+        *p = '\0';
+        if (mkdir(buf, 0777) != 0 && errno != EEXIST && !(stat(buf, &st) == 0 && S_ISDIR(st.st_mode)))
+            return -1;
+        *p = c;
+        if (c == '\0')
+            break;
+    }
+    if (stat(buf, &st) != 0)
+        return -1;
+    if (!S_ISDIR(st.st_mode)) {
+        errno = ENOTDIR;
+        return -1;
+    }
+    return 0;
+}
+
+int fp_make_parent_dir(const char *path, long frame)
+{
+    const char *slash = strrchr(path, '/');
+    char dir[4096];
+    struct stat st;
+    if (!slash || slash == path)
+        return FP_OK;
+    size_t len = (size_t)(slash - path);
+    if (len >= sizeof dir)
+        return fp_error("%s: frame %ld: file name too long", path, frame);
+    memcpy(dir, path, len);
+    dir[len] = 0;
+    if (stat(dir, &st) == 0 && S_ISDIR(st.st_mode))
+        return FP_OK;
+    if (fp_mkdir_p(dir) != 0)
+        return fp_error("%s: frame %ld: cannot create the directory %s (%s)", path, frame, dir,
+                        strerror(errno));
+    return FP_OK;
 }

@@ -54,6 +54,15 @@ void fp_msg_free(fp_msgbuf_t *b);
  * is known, -1 otherwise (dir then ""). */
 int fp_exe_dir(char *dir, size_t n);
 
+/* mkdir -p: `dir` and its missing parents (0777 less the umask).  0 when
+ * it is a directory afterwards, -1 with errno set otherwise. */
+int fp_mkdir_p(const char *dir);
+
+/* The directory that will hold the file `path` (an output frame, a
+ * preview), made when missing, as Nuke's and Blender's Write nodes do: one
+ * error line naming the file, the frame and the directory otherwise. */
+int fp_make_parent_dir(const char *path, long frame);
+
 /* A frame's label for messages: "shot.0012.exr" or "<stdin> frame 3". */
 typedef struct fp_where_t {
     const char *file;   /* file name or "<stdin>" */

@@ -7,6 +7,7 @@
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -29,6 +30,8 @@ using OIIO::ImageInput;
 using OIIO::ImageOutput;
 using OIIO::ImageSpec;
 using OIIO::TypeDesc;
+using OIIO::ROI;
+namespace ImageBufAlgo = OIIO::ImageBufAlgo;
 
 namespace {
 
@@ -340,7 +343,7 @@ extern "C" int fp_oiio_write_preview(const char *path, const float *pixels, int 
 }
 
 extern "C" int fp_oiio_tile_sheet(const char *const *paths, int count, int columns,
-                                  const char *out_path)
+                                  int max_size, const char *out_path)
 {
     return guarded(out_path, "making the contact sheet", [&]() -> int {
         if (!out_path || !*out_path)
@@ -350,9 +353,13 @@ extern "C" int fp_oiio_tile_sheet(const char *const *paths, int count, int colum
                             out_path, count);
         if (columns < 1)
             return fp_error("%s: expected at least one column, got %d", out_path, columns);
+        if (max_size < 1)
+            return fp_error("%s: expected a largest sheet side of at least 1 pixel, got %d",
+                            out_path, max_size);
         int rows = (count + columns - 1) / columns;
         std::vector<float> sheet;
         Pixels cell, first;
+        int tw = 0, th = 0;   // the cells' size on the sheet
         int bits = 8;
         for (int i = 0; i < count; i++) {
             if (!paths[i] || !*paths[i])
@@ -368,15 +375,17 @@ extern "C" int fp_oiio_tile_sheet(const char *const *paths, int count, int colum
                 if (cell.nchannels != 1 && cell.nchannels != 3 && cell.nchannels != 4)
                     return fp_error("%s: %d channels; expected 1, 3 or 4 (gray, RGB, RGBA) "
                                     "for a contact sheet", paths[i], cell.nchannels);
-                if ((long long)cell.width * columns > INT_MAX ||
-                    (long long)cell.height * rows > INT_MAX)
-                    return fp_error("%s: a %d x %d sheet of %dx%d images is too large",
-                                    out_path, columns, rows, cell.width, cell.height);
+                // Thumbnails: the sheet's longer side at most max_size pixels
+                // (100 1080p frames made a 19200x10800 float image), never
+                // enlarged; cells keep their aspect.
+                double scale = std::min({ 1.0, (double)max_size / ((double)cell.width * columns),
+                                          (double)max_size / ((double)cell.height * rows) });
+                tw = std::max(1, (int)std::lround(cell.width * scale));
+                th = std::max(1, (int)std::lround(cell.height * scale));
                 first.width = cell.width;
                 first.height = cell.height;
                 first.nchannels = cell.nchannels;
-                sheet.assign((size_t)cell.width * columns * cell.height * rows *
-                                 cell.nchannels, 0.0f);
+                sheet.assign((size_t)tw * columns * th * rows * cell.nchannels, 0.0f);
             } else if (cell.width != first.width || cell.height != first.height ||
                        cell.nchannels != first.nchannels) {
                 return fp_error("%s: %dx%d pixels, %d channel(s); expected %dx%d pixels, %d "
@@ -386,14 +395,25 @@ extern "C" int fp_oiio_tile_sheet(const char *const *paths, int count, int colum
             }
             if (cell.bits > bits)
                 bits = 16;
-            size_t row_len = (size_t)cell.width * cell.nchannels;
+            if (tw != cell.width || th != cell.height) {
+                ImageSpec spec(cell.width, cell.height, cell.nchannels, TypeDesc::FLOAT);
+                ImageBuf src(spec, cell.v.data()), dst;
+                if (!ImageBufAlgo::resize(dst, src, "", 0.0f, ROI(0, tw, 0, th)))
+                    return fp_error("%s: cannot scale %s to %dx%d for the contact sheet (%s)",
+                                    out_path, paths[i], tw, th, dst.geterror().c_str());
+                // The filter rings a little past the display range.
+                ImageBufAlgo::clamp(dst, dst, 0.0f, 1.0f);
+                cell.v.assign((size_t)tw * th * cell.nchannels, 0.0f);
+                dst.get_pixels(ROI(0, tw, 0, th), TypeDesc::FLOAT, cell.v.data());
+            }
+            size_t row_len = (size_t)tw * cell.nchannels;
             size_t sheet_row = row_len * columns;
-            size_t x0 = (size_t)(i % columns) * row_len, y0 = (size_t)(i / columns) * cell.height;
-            for (int y = 0; y < cell.height; y++)
+            size_t x0 = (size_t)(i % columns) * row_len, y0 = (size_t)(i / columns) * th;
+            for (int y = 0; y < th; y++)
                 memcpy(&sheet[(y0 + y) * sheet_row + x0], &cell.v[y * row_len],
                        row_len * sizeof(float));
         }
-        return write_pixels(out_path, sheet.data(), first.width * columns,
-                            first.height * rows, first.nchannels, bits, false, true);
+        return write_pixels(out_path, sheet.data(), tw * columns, th * rows, first.nchannels,
+                            bits, false, true);
     });
 }

@@ -63,8 +63,11 @@ int fp_oiio_write_preview(const char *path, const float *pixels, int width, int 
  * black and transparent), and write the sheet atomically to `out_path` as
  * fp_oiio_write_preview() does, without dither.  The sheet has 16 bits per
  * channel if any input has more than 8 and the output format can store 16,
- * else 8; integer codes are carried over exactly. */
-int fp_oiio_tile_sheet(const char *const *paths, int count, int columns, const char *out_path);
+ * else 8.  Cells are scaled down (OpenImageIO's resize filter, kept in
+ * [0, 1]) so that the sheet's longer side is at most `max_size` pixels;
+ * unscaled cells carry their integer codes over exactly. */
+int fp_oiio_tile_sheet(const char *const *paths, int count, int columns, int max_size,
+                       const char *out_path);
 
 #ifdef __cplusplus
 }

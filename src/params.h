@@ -141,6 +141,7 @@ typedef struct fp_preview_params_t {  /* filters/preview.c */
     char *preview;        /* PNG/JPEG/TIFF pattern, one per frame */
     char *contact_sheet;  /* one image tiling the run's previews */
     int columns;          /* of the contact sheet; 0: about square */
+    int sheet_size;       /* the contact sheet's longer side at most (pixels) */
 } fp_preview_params_t;
 
 /* Monte Carlo reference (filters/reference.c; seed from --seed). */

@@ -394,7 +394,7 @@ static int write_frame(run_t *r, fp_loop_job_t *job)
         /* The frame is encoded whole before the first byte goes out. */
         if (fwrite(bytes, 1, nbytes, r->out_stream) != nbytes || fflush(r->out_stream))
             rc = fp_error("<stdout>: frame %ld: write failed (%s)", frame, strerror(errno));
-    } else {
+    } else if ((rc = fp_make_parent_dir(out_name, frame)) == FP_OK) {
         rc = fp_exr_write_bytes(out_name, frame, bytes, nbytes);
     }
     fp_loop_commit_end(rc == FP_OK ? job : NULL);

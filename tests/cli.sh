@@ -16,6 +16,13 @@ fails "unknown device" 1 "device" "$T/dev.exr" "$FOGPIPE" --device nosuchdevice 
 
 # A sequence, with the pass-through depth channel and the alpha kept.
 check "fog a sequence of 3 frames" "$FOGPIPE" -i "$S/scene.####.exr" -o "$T/seq.####.exr" --frames 1-3
+check "-o into missing directories makes them (as Nuke's and Blender's Write do)" sh -c '
+  "$1" -i "$2" --frames 1-2 -o "$3/made/dirs/out.####.exr" && test -f "$3/made/dirs/out.0002.exr"' \
+  sh "$FOGPIPE" "$S/scene.####.exr" "$T"
+: > "$T/notadir"
+fails "-o under a file: one line naming the frame and the directory" 1 \
+  "notadir/x.0001.exr: frame 1: cannot create the directory .*notadir" "$T/notadir/x.0001.exr" \
+  "$FOGPIPE" -i "$S/scene.####.exr" --frames 1 -o "$T/notadir/x.####.exr"
 check "3 frames written" test -f "$T/seq.0001.exr" -a -f "$T/seq.0002.exr" -a -f "$T/seq.0003.exr" -a ! -e "$T/seq.0004.exr"
 check "output keeps channels, windows and camera attributes" sh -c '
   "$OIIOTOOL" --info -v "$1" > "$2/info.txt" &&
@@ -42,7 +49,8 @@ fails "no depth channel" 1 "nodepth.exr.*frame 1.*no depth channel.*--depth-chan
   "$FOGPIPE" -i "$T/nodepth.exr" -o "$T/o5.exr"
 fails "color/depth size mismatch names both files" 1 "nodepth.exr.*shadow.0001.exr|shadow.0001.exr.*nodepth.exr" \
   "$T/o6.exr" "$FOGPIPE" -i "$T/nodepth.exr" --depth "$S/shadow.0001.exr" -o "$T/o6.exr"
-fails "unwritable output" 1 "no/such/dir/o7.exr" - "$FOGPIPE" -i "$S/scene.0001.exr" -o "$T/no/such/dir/o7.exr"
+# A missing directory is made (below); one that cannot be made, even as root, is an error.
+fails "unwritable output" 1 "/proc/fogpipe-none/o7.exr.*cannot create the directory" - "$FOGPIPE" -i "$S/scene.0001.exr" -o /proc/fogpipe-none/o7.exr
 fails "output over its own input" 2 "overwrite" - "$FOGPIPE" -i "$T/seq.0001.exr" -o "$T/seq.0001.exr"
 fails "a sequence into one file" 2 "sequence pattern" - "$FOGPIPE" -i "$S/scene.####.exr" -o "$T/one.exr" --frames 1-2
 

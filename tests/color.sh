@@ -119,6 +119,9 @@ check "contact sheet: 2 columns of 320x180 (ceil(sqrt(3)))" sh -c '"$1" --info "
   sh "$OIIOTOOL" "$T/sheet.png"
 check "contact sheet cell 2 = preview 2" sh -c '"$1" "$2/sheet.png" --cut 320x180+320+0 -o "$2/cell2.png" &&
   "$3" -q -fail 0 -warn 0 "$2/cell2.png" "$2/pv.0002.png"' sh "$OIIOTOOL" "$T" "$IDIFF"
+check "--contact-sheet-size 200: 3 cells of 320x180 in 2 columns scaled to 100x56" sh -c '"$1" -i "$2" --frames 1-3 \
+  -o "$3/ps.####.exr" --preview "$3/ps.####.png" --contact-sheet "$3/sheet-small.png" --contact-sheet-size 200 &&
+  "$4" --info "$3/sheet-small.png" | grep -q "200 x  112, 3 channel, uint8"' sh "$FOGPIPE" "$S/scene.####.exr" "$T" "$OIIOTOOL"
 check "--contact-sheet-columns 3" sh -c '"$1" -i "$2" --frames 1-3 -o "$3/pc.####.exr" --preview "$3/pc.####.png" \
   --contact-sheet "$3/sheet3.png" --contact-sheet-columns 3 && "$4" --info "$3/sheet3.png" | grep -q "960 x  180"' \
   sh "$FOGPIPE" "$S/scene.####.exr" "$T" "$OIIOTOOL"
@@ -160,8 +163,12 @@ fails "--preview of an unknown format" 2 "--preview .*pe.gif: expected a .png, .
   "$T/e13.exr" "$FOGPIPE" -i "$IN" -o "$T/e13.exr" --preview "$T/pe.gif"
 fails "--preview without a frame number for a sequence" 2 "--preview .*one.png: .*frame number" \
   "$T/sq.0001.exr" "$FOGPIPE" -i "$S/scene.####.exr" --frames 1-2 -o "$T/sq.####.exr" --preview "$T/one.png"
-fails "--preview into a missing directory" 1 "--preview .*nodir/p.png: no directory" \
-  "$T/e14.exr" "$FOGPIPE" -i "$IN" -o "$T/e14.exr" --preview "$T/nodir/p.png"
+check "--preview and --contact-sheet into missing directories make them" sh -c '
+  "$1" -i "$2" -o "$3/e14.exr" --preview "$3/nodir/deeper/p.png" --contact-sheet "$3/sheets/s.png" &&
+  test -f "$3/nodir/deeper/p.png" -a -f "$3/sheets/s.png"' sh "$FOGPIPE" "$IN" "$T"
+: > "$T/afile"
+fails "--preview where a file stands in for the directory" 1 "--preview .*afile/p.png: .*afile is not a directory" \
+  "$T/e15.exr" "$FOGPIPE" -i "$IN" -o "$T/e15.exr" --preview "$T/afile/p.png"
 
 # fogpipe's config: found in the build tree, and installed with the binary.
 check "the build tree's fogpipe finds the config next to it" sh -c '"$1" -v -i "$2" -o "$3" --output-space ACEScg 2>&1 |

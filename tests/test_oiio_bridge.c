@@ -418,7 +418,7 @@ static void test_contact_sheet(void **state)
         assert_int_equal(fp_oiio_write_preview(paths[k], cell, cw, ch, 3, 8, 0), FP_OK);
     }
     const char *sheet = tpath("sheet.png");
-    assert_int_equal(fp_oiio_tile_sheet(paths, n, 2, sheet), FP_OK);
+    assert_int_equal(fp_oiio_tile_sheet(paths, n, 2, 4096, sheet), FP_OK);
     assert_int_equal(temporaries(), 0);
     float *r, *g;
     int w, h;
@@ -438,7 +438,7 @@ static void test_contact_sheet(void **state)
     free(g);
 
     /* One column: a tall strip. */
-    assert_int_equal(fp_oiio_tile_sheet(paths, 3, 1, sheet), FP_OK);
+    assert_int_equal(fp_oiio_tile_sheet(paths, 3, 1, 4096, sheet), FP_OK);
     read_ok(sheet, NULL, &r, &w, &h);
     assert_int_equal(w, cw);
     assert_int_equal(h, 3 * ch);
@@ -452,11 +452,25 @@ static void test_contact_sheet(void **state)
     const char *d[2] = { strdup(tpath("deep0.png")), strdup(tpath("deep1.tif")) };
     assert_int_equal(fp_oiio_write_preview(d[0], deep, cw, ch, 1, 16, 0), FP_OK);
     assert_int_equal(fp_oiio_write_preview(d[1], deep, cw, ch, 1, 16, 0), FP_OK);
-    assert_int_equal(fp_oiio_tile_sheet(d, 2, 2, sheet), FP_OK);
+    assert_int_equal(fp_oiio_tile_sheet(d, 2, 2, 4096, sheet), FP_OK);
     read_ok(sheet, NULL, &r, &w, &h);
     assert_int_equal(w, 2 * cw);
     assert_float_same(r[w * h - 1], 1000.0f / 65535.0f);
     free(r);
+
+    /* A bounded sheet: five 6x4 cells in 2 columns (12x12) at most 6 pixels
+     * a side are scaled by 1/2 to 3x2, and a flat cell stays flat. */
+    assert_int_equal(fp_oiio_tile_sheet(paths, n, 2, 6, sheet), FP_OK);
+    read_ok(sheet, "R", &r, &w, &h);
+    assert_int_equal(w, 6);
+    assert_int_equal(h, 6);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            int k = (y / 2) * 2 + x / 3;
+            assert_float_same(r[y * w + x], k < n ? (float)(10 * k + 1) / 255.0f : 0.0f);
+        }
+    free(r);
+    assert_int_not_equal(fp_oiio_tile_sheet(paths, n, 2, 0, tpath("sheet3.png")), FP_OK);
 
     /* A cell of another size, or other channels, is named; nothing written. */
     float odd[7 * 4 * 3] = { 0 };
@@ -464,13 +478,13 @@ static void test_contact_sheet(void **state)
     assert_int_equal(fp_oiio_write_preview(oddp, odd, 7, 4, 3, 8, 0), FP_OK);
     const char *mixed[3] = { paths[0], paths[1], oddp };
     const char *out2 = tpath("sheet2.png");
-    assert_int_not_equal(fp_oiio_tile_sheet(mixed, 3, 2, out2), FP_OK);
+    assert_int_not_equal(fp_oiio_tile_sheet(mixed, 3, 2, 4096, out2), FP_OK);
     const char *gray_rgb[2] = { d[0], paths[0] };
-    assert_int_not_equal(fp_oiio_tile_sheet(gray_rgb, 2, 2, out2), FP_OK);
+    assert_int_not_equal(fp_oiio_tile_sheet(gray_rgb, 2, 2, 4096, out2), FP_OK);
     const char *missing[2] = { paths[0], tpath("nothere.png") };
-    assert_int_not_equal(fp_oiio_tile_sheet(missing, 2, 2, out2), FP_OK);
-    assert_int_not_equal(fp_oiio_tile_sheet(paths, 0, 2, out2), FP_OK);
-    assert_int_not_equal(fp_oiio_tile_sheet(paths, 2, 0, out2), FP_OK);
+    assert_int_not_equal(fp_oiio_tile_sheet(missing, 2, 2, 4096, out2), FP_OK);
+    assert_int_not_equal(fp_oiio_tile_sheet(paths, 0, 2, 4096, out2), FP_OK);
+    assert_int_not_equal(fp_oiio_tile_sheet(paths, 2, 0, 4096, out2), FP_OK);
     assert_int_equal(access(out2, F_OK), -1);
     assert_int_equal(temporaries(), 0);
 
