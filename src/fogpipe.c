@@ -7,12 +7,20 @@
 
 #include "config.h"
 
+#include <stdlib.h>
+
 int main(int argc, char **argv)
 {
     fp_params_t p;
     int rc = fp_options_defaults(&p);
+    /* The environment's default, below presets and the command line. */
+    const char *progress = getenv("FOGPIPE_PROGRESS");
+    if (rc == FP_OK && progress && *progress)
+        rc = fp_options_apply(&p, "progress", progress, "$FOGPIPE_PROGRESS");
     if (rc == FP_OK)
         rc = fp_options_parse(argc, argv, &p);
+    p.cmd.argc = argc;
+    p.cmd.argv = argv;
     if (rc) {
         fp_options_free(&p);
         return rc == FP_EUSAGE ? 2 : 1;

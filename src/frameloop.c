@@ -324,11 +324,39 @@ static void progress_clear(loop_t *l)
     }
 }
 
+/* FP_PROGRESS_LINES, for farm logs (frameloop.h): one line per frame that
+ * leaves the loop, whole, never redrawn. */
+static void progress_line(loop_t *l, const fp_loop_job_t *job)
+{
+    long done = l->n_ok + l->n_skipped;
+    double el = (fp_now_ms() - l->t0) / 1e3;
+    char count[96], what[96], left[48] = "";
+    if (l->o->total > 0)
+        snprintf(count, sizeof count, "%ld of %ld frames (%ld%%)", done, l->o->total,
+                 done * 100 / l->o->total);
+    else
+        snprintf(count, sizeof count, "%ld frame%s", done, done == 1 ? "" : "s");
+    if (job->skipped) {
+        snprintf(what, sizeof what, "frame %ld skipped", job->frame);
+    } else {
+        double ms = 0;
+        for (int k = 0; k < FP_T_COUNT; k++)
+            ms += job->ms[k];
+        snprintf(what, sizeof what, "frame %ld in %.1f s", job->frame, ms / 1e3);
+    }
+    if (l->o->total > 0 && l->n_ok > 0 && el > 0) {
+        char d[32];
+        fmt_duration((l->o->total - done) / (l->n_ok / el), d, sizeof d);
+        snprintf(left, sizeof left, ", %s left", d);
+    }
+    fprintf(stderr, "fogpipe: progress: %s, %s%s\n", count, what, left);
+}
+
 /* "frame 12/100  3.4 fps  0:25 left" */
 static void progress_draw(loop_t *l, int final)
 {
     double now = fp_now_ms();
-    if (!l->o->progress || (!final && l->shown && now - l->t_drawn < 100))
+    if (l->o->progress != FP_PROGRESS_BAR || (!final && l->shown && now - l->t_drawn < 100))
         return;
     l->t_drawn = now;
     double el = (now - l->t0) / 1e3;
@@ -408,6 +436,8 @@ static void finish(loop_t *l, fp_loop_job_t *job)
             }
         }
         record(l, job, job->skipped ? REC_SKIPPED : REC_OK);
+        if (l->o->progress == FP_PROGRESS_LINES)
+            progress_line(l, job);
         progress_draw(l, 0);
     } else {
         record(l, job, REC_FAILED);
@@ -606,7 +636,19 @@ static int write_stats(loop_t *l, int rc, double wall_ms)
     fprintf(f, "{\n  \"fogpipe\": \"%s\",\n  \"status\": \"%s\",\n", PACKAGE_VERSION, status);
     fprintf(f, "  \"exit_status\": %d,\n", rc == FP_OK ? 0 : rc >= FP_ESIGNAL ? rc
                                                      : rc == FP_EUSAGE ? 2 : 1);
-    fputs("  \"input\": ", f);
+    char host[256] = "";
+    if (gethostname(host, sizeof host - 1) != 0)
+        host[0] = 0;
+    fputs("  \"host\": ", f);
+    json_str(f, host);
+    fputs(",\n  \"device\": ", f);
+    json_str(f, l->o->device ? l->o->device : "-");
+    fputs(",\n  \"argv\": [", f);
+    for (int i = 0; l->o->argv && i < l->o->argc; i++) {
+        fputs(i ? ", " : "", f);
+        json_str(f, l->o->argv[i]);
+    }
+    fputs("],\n  \"input\": ", f);
     json_str(f, l->o->input ? l->o->input : "-");
     fputs(",\n  \"output\": ", f);
     json_str(f, l->o->output ? l->o->output : "-");
@@ -687,7 +729,7 @@ int fp_loop_run(const fp_loop_ops_t *ops, const fp_loop_opts_t *opts)
     int sig = fp_loop_interrupted();
     if (sig || l.status != FP_OK)
         progress_clear(&l);
-    else if (l.shown || (l.o->progress && l.n_ok + l.n_skipped > 0))
+    else if (l.shown || (l.o->progress == FP_PROGRESS_BAR && l.n_ok + l.n_skipped > 0))
         progress_draw(&l, 1);
     if (rc == FP_OK)
         rc = l.status;

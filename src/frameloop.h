@@ -77,12 +77,22 @@ typedef struct fp_loop_ops_t {
     void (*release)(void *ctx, fp_loop_job_t *job);
 } fp_loop_ops_t;
 
+/* Progress on stderr: an updating line on a terminal (BAR), or one line
+ * per finished frame for farm logs (LINES):
+ *   fogpipe: progress: 3 of 100 frames (3%), frame 1003 in 2.1 s, 3:24 left
+ * ("N frames" and no percentage or time left when the count is unknown, a
+ * stream); AUTO picks BAR on a terminal, else LINES. */
+enum { FP_PROGRESS_AUTO = 0, FP_PROGRESS_BAR, FP_PROGRESS_LINES, FP_PROGRESS_OFF };
+
 typedef struct fp_loop_opts_t {
     int pipelined;
-    int progress;               /* the updating line on stderr (the caller checked the tty) */
+    int progress;               /* FP_PROGRESS_BAR, _LINES or _OFF (the caller resolved auto) */
     long total;                 /* frames expected; 0: unknown (a stream) */
     const char *stats_path;     /* --stats FILE, or NULL */
     const char *input, *output; /* patterns, for the stats */
+    const char *device;         /* "C reference" or the OpenCL device, for the stats */
+    int argc;                   /* the command line, for the stats (argv may be NULL) */
+    char *const *argv;
     double setup_ms;            /* device, programs, fogmap before the first frame */
     double fogmap_setup_ms;     /* the fogmap's first decomposition, part of setup_ms */
 } fp_loop_opts_t;

@@ -169,12 +169,16 @@ typedef struct fp_buffers_params_t {
 
 typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     int pipeline;         /* 1: read, compute and write on three threads */
+    int progress;         /* FP_PROGRESS_* */
     int skip_existing;    /* leave frames whose output exists alone */
     char *stats;          /* per-frame timings as JSON */
     int no_fog;           /* benchmark: read and write only (the I/O floor) */
 } fp_run_params_t;
 
 typedef struct fp_cmd_params_t {
+    /* The command line as given (not owned), for --stats. */
+    int argc;
+    char **argv;
     int help;
     int help_markdown;
     int version;

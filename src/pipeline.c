@@ -71,6 +71,12 @@ const fp_option_t fp_run_options[] = {
     { "stats", 0, FP_OPT_STRING, RUN(stats), 0, 0, NULL, 0, 0, NULL, "FILE",
       "write per-frame timings (read, decode, fog, composite, encode, write) and totals as "
       "JSON to FILE at the end", NULL, 0 },
+    { "progress", 0, FP_OPT_ENUM, RUN(progress), 0, 0, "auto", 0, 0, "auto|bar|lines|off",
+      "auto|bar|lines|off",
+      "progress on stderr: an updating line (bar), one line per frame for farm logs "
+      "(lines: \"fogpipe: progress: 3 of 100 frames (3%), frame 1003 in 2.1 s, 3:24 left\"), "
+      "or none; auto: bar on a terminal, else lines ($FOGPIPE_PROGRESS sets the default)",
+      NULL, 0 },
     { "pipeline", 0, FP_OPT_ENUM, RUN(pipeline), 0, 0, "on", 0, 0, "off|on", "off|on",
       "decode the next frame and encode the previous one on their own threads while the "
       "device computes (off: one frame at a time, for debugging)", NULL, 0 },
@@ -563,7 +569,14 @@ static int run_loop(run_t *r, int (*next)(void *, fp_loop_job_t *), long total)
     fp_loop_ops_t ops = { r, next, stage_process, stage_write, stage_release };
     fp_loop_opts_t o = { 0 };
     o.pipelined = p->run.pipeline;
-    o.progress = !p->io.quiet && !p->cmd.print_camera && isatty(STDERR_FILENO);
+    o.progress = p->run.progress;
+    if (p->io.quiet || p->cmd.print_camera)
+        o.progress = FP_PROGRESS_OFF;
+    else if (o.progress == FP_PROGRESS_AUTO)
+        o.progress = isatty(STDERR_FILENO) ? FP_PROGRESS_BAR : FP_PROGRESS_LINES;
+    o.device = r->cl ? fp_cl_device_label(r->cl) : "C reference (--cpu)";
+    o.argc = p->cmd.argc;
+    o.argv = p->cmd.argv;
     o.total = total;
     o.stats_path = p->run.stats;
     o.input = p->io.input;

@@ -28,23 +28,41 @@ check "--stats FILE: per-frame timings as JSON" sh -c '
     grep "read_ms" | grep "decode_ms" | grep "fog_ms" | grep "composite_ms" | grep "encode_ms" |
     grep -q "write_ms" && grep -q "\"totals_ms\": { \"read\": " "$2/stats.json"' sh "$S" "$T"
 if command -v python3 >/dev/null; then
-  check "--stats is valid JSON" python3 -c 'import json, sys; d = json.load(open(sys.argv[1]));
-assert len(d["frames"]) == 3 and d["frames"][0]["frame"] == 2 and d["fps"] > 0' "$T/stats.json"
+  check "--stats is valid JSON, with the host, the device and the command line" python3 -c 'import json, socket, sys; d = json.load(open(sys.argv[1]));
+assert len(d["frames"]) == 3 and d["frames"][0]["frame"] == 2 and d["fps"] > 0
+assert d["host"] == socket.gethostname(), d["host"]
+assert "Portable Computing Language" in d["device"] or "pthread" in d["device"], d["device"]
+assert d["argv"][1:] == ["-i", sys.argv[2] + "/scene.####.exr", "-o", sys.argv[3] + "/st.####.exr", "--frames", "2-4", "--stats", sys.argv[3] + "/stats.json"], d["argv"]
+assert d["fogpipe"]' "$T/stats.json" "$S" "$T"
 else
   skip "python3 not installed"
 fi
 
-# --- progress: one updating line on a terminal, nothing in pipes -------------
-check "no progress in a pipe" sh -c '"$FOGPIPE" -i "$1/scene.####.exr" -o "$2/pp.####.exr" \
-  --frames 1-3 2> "$2/pipe.txt" && ! test -s "$2/pipe.txt"' sh "$S" "$T"
+# --- progress: one updating line on a terminal, a line per frame in logs -----
+# (make check sets FOGPIPE_PROGRESS=off for the other tests; these unset it.)
+check "progress for farm logs: one line per frame, N of M and a percentage" sh -c '
+  env -u FOGPIPE_PROGRESS "$FOGPIPE" -i "$1/scene.####.exr" -o "$2/pp.####.exr" --frames 1-3 2> "$2/pipe.txt" &&
+  test "$(wc -l < "$2/pipe.txt")" = 3 &&
+  grep -Eq "^fogpipe: progress: 1 of 3 frames \(33%\), frame 1 in [0-9.]+ s, [0-9:]+ left$" "$2/pipe.txt" &&
+  grep -Eq "^fogpipe: progress: 3 of 3 frames \(100%\), frame 3 in [0-9.]+ s, 0:00 left$" "$2/pipe.txt"' sh "$S" "$T"
+check "progress lines for a stream: the count, no percentage" sh -c '
+  cat "$1/scene.0001.exr" "$1/scene.0002.exr" | env -u FOGPIPE_PROGRESS "$FOGPIPE" > "$2/pp.stream" 2> "$2/pipes.txt" &&
+  grep -Eq "^fogpipe: progress: 2 frames, frame 2 in [0-9.]+ s$" "$2/pipes.txt"' sh "$S" "$T"
+check "--progress off, -q and \$FOGPIPE_PROGRESS=off: nothing on stderr" sh -c '
+  env -u FOGPIPE_PROGRESS "$FOGPIPE" --progress off -i "$1/scene.####.exr" -o "$2/po.####.exr" --frames 1-2 2> "$2/off1.txt" &&
+  env -u FOGPIPE_PROGRESS "$FOGPIPE" -q -i "$1/scene.####.exr" -o "$2/po.####.exr" --frames 1-2 2> "$2/off2.txt" &&
+  FOGPIPE_PROGRESS=off "$FOGPIPE" -i "$1/scene.####.exr" -o "$2/po.####.exr" --frames 1-2 2> "$2/off3.txt" &&
+  ! test -s "$2/off1.txt" && ! test -s "$2/off2.txt" && ! test -s "$2/off3.txt"' sh "$S" "$T"
+fails "a bad \$FOGPIPE_PROGRESS is a usage error" 2 "FOGPIPE_PROGRESS.*expected auto" - \
+  env FOGPIPE_PROGRESS=loud "$FOGPIPE" -i "$S/scene.0001.exr" -o "$T/pbad.exr"
 if command -v script >/dev/null; then
   check "progress on a terminal: frame N/M, fps, a newline at the end" sh -c '
-    script -qec "\"$FOGPIPE\" -i \"$1/scene.####.exr\" -o \"$2/pt.####.exr\" --frames 1-8" /dev/null \
+    script -qec "env -u FOGPIPE_PROGRESS \"$FOGPIPE\" -i \"$1/scene.####.exr\" -o \"$2/pt.####.exr\" --frames 1-8" /dev/null \
       < /dev/null > "$2/tty.txt" &&
     tr "\r" "\n" < "$2/tty.txt" | grep -Eq "^(.\[K)?frame 8/8  [0-9.]+ fps  done in 0:[0-9][0-9]" &&
     grep -q "frame [0-9]/8" "$2/tty.txt" && test "$(tail -c 2 "$2/tty.txt" | od -An -c | tr -d " ")" = "\r\n"' sh "$S" "$T"
   check "-q: no progress on a terminal either" sh -c '
-    script -qec "\"$FOGPIPE\" -q -i \"$1/scene.####.exr\" -o \"$2/pq.####.exr\" --frames 1-3" /dev/null \
+    script -qec "env -u FOGPIPE_PROGRESS \"$FOGPIPE\" -q -i \"$1/scene.####.exr\" -o \"$2/pq.####.exr\" --frames 1-3" /dev/null \
       < /dev/null > "$2/ttyq.txt" && ! grep -q "frame" "$2/ttyq.txt"' sh "$S" "$T"
 else
   skip "script(1) not installed"
