@@ -849,9 +849,10 @@ static void print_build_log(const fp_cl_t *cl, cl_program prog, const char *stag
         clGetProgramBuildInfo(prog, cl->device, CL_PROGRAM_BUILD_LOG, n, log, NULL) ==
             CL_SUCCESS) {
         trim(log);
-        fprintf(stderr, "%s\n", *log ? log : "(empty build log)");
+        fp_emit(FP_MSG_ERROR, *log ? log : "(empty build log)", *log ? strlen(log) : 17);
+        fp_emit(FP_MSG_ERROR, "\n", 1);
     } else {
-        fputs("(no build log)\n", stderr);
+        fp_emit(FP_MSG_ERROR, "(no build log)\n", 15);
     }
     free(log);
 }

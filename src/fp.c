@@ -10,6 +10,22 @@ int fp_quiet = 0;
 int fp_verbose = 0;
 
 static _Thread_local fp_msgbuf_t *tl_sink;
+static fp_emit_fn g_emit;
+static void *g_emit_user;
+
+void fp_msg_set_emitter(fp_emit_fn fn, void *user)
+{
+    g_emit = fn;
+    g_emit_user = user;
+}
+
+void fp_emit(int kind, const char *text, size_t len)
+{
+    if (g_emit)
+        g_emit(g_emit_user, kind, text, len);
+    else
+        fwrite(text, 1, len, stderr);
+}
 
 fp_msgbuf_t *fp_msg_capture(fp_msgbuf_t *sink)
 {
@@ -39,7 +55,7 @@ static int keep(fp_msgbuf_t *b, const char *line, size_t n)
 void fp_msg_flush(fp_msgbuf_t *b)
 {
     if (b->len)
-        fwrite(b->text, 1, b->len, stderr);
+        fp_emit(FP_MSG_KEPT, b->text, b->len);
     b->len = 0;
 }
 
@@ -49,7 +65,7 @@ void fp_msg_free(fp_msgbuf_t *b)
     memset(b, 0, sizeof *b);
 }
 
-static void vmsg(const char *prefix, const char *fmt, va_list ap)
+static void vmsg(int kind, const char *prefix, const char *fmt, va_list ap)
 {
     /* One write per message keeps lines whole when threads print. */
     char buf[2048], line[2200];
@@ -58,14 +74,14 @@ static void vmsg(const char *prefix, const char *fmt, va_list ap)
     size_t len = n < 0 ? 0 : (size_t)n < sizeof line ? (size_t)n : sizeof line - 1;
     if (tl_sink && keep(tl_sink, line, len) == 0)
         return;
-    fputs(line, stderr);
+    fp_emit(kind, line, len);
 }
 
 int fp_error(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    vmsg("", fmt, ap);
+    vmsg(FP_MSG_ERROR, "", fmt, ap);
     va_end(ap);
     return FP_ERR;
 }
@@ -74,7 +90,7 @@ int fp_usage_error(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    vmsg("", fmt, ap);
+    vmsg(FP_MSG_ERROR, "", fmt, ap);
     va_end(ap);
     return FP_EUSAGE;
 }
@@ -85,7 +101,7 @@ void fp_warn(const char *fmt, ...)
         return;
     va_list ap;
     va_start(ap, fmt);
-    vmsg("warning: ", fmt, ap);
+    vmsg(FP_MSG_WARNING, "warning: ", fmt, ap);
     va_end(ap);
 }
 
@@ -95,7 +111,7 @@ void fp_info(const char *fmt, ...)
         return;
     va_list ap;
     va_start(ap, fmt);
-    vmsg("", fmt, ap);
+    vmsg(FP_MSG_INFO, "", fmt, ap);
     va_end(ap);
 }
 

@@ -35,6 +35,16 @@ void fp_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 extern int fp_quiet;
 extern int fp_verbose;
 
+/* Where messages go: stderr, unless an emitter is set (process-wide; the
+ * library's API sets one so that it never prints).  `kind` says what the
+ * text is; FP_MSG_KEPT is a buffer of whole lines kept by a frame
+ * (errors, warnings and info mixed), FP_MSG_PROGRESS the progress output
+ * (for a terminal it holds "\r" and escape codes). */
+enum { FP_MSG_ERROR = 0, FP_MSG_WARNING, FP_MSG_INFO, FP_MSG_KEPT, FP_MSG_PROGRESS };
+typedef void (*fp_emit_fn)(void *user, int kind, const char *text, size_t len);
+void fp_msg_set_emitter(fp_emit_fn fn, void *user);
+void fp_emit(int kind, const char *text, size_t len);
+
 /* Kept messages.  While a thread has a sink (fp_msg_capture), its messages
  * (errors, warnings, info) are appended to the sink, whole lines, instead
  * of printed; fp_msg_flush prints them later.  The frame loop keeps each

@@ -318,7 +318,7 @@ static void fmt_duration(double s, char *buf, size_t n)
 static void progress_clear(loop_t *l)
 {
     if (l->shown) {
-        fputs("\r\033[K", stderr);
+        fp_emit(FP_MSG_PROGRESS, "\r\033[K", 4);
         l->shown = 0;
         atomic_store(&sg.progress_shown, 0);
     }
@@ -349,7 +349,9 @@ static void progress_line(loop_t *l, const fp_loop_job_t *job)
         fmt_duration((l->o->total - done) / (l->n_ok / el), d, sizeof d);
         snprintf(left, sizeof left, ", %s left", d);
     }
-    fprintf(stderr, "fogpipe: progress: %s, %s%s\n", count, what, left);
+    char line[320];
+    int len = snprintf(line, sizeof line, "fogpipe: progress: %s, %s%s\n", count, what, left);
+    fp_emit(FP_MSG_PROGRESS, line, len < (int)sizeof line ? (size_t)len : sizeof line - 1);
 }
 
 /* "frame 12/100  3.4 fps  0:25 left" */
@@ -376,7 +378,9 @@ static void progress_draw(loop_t *l, int final)
         }
         snprintf(line + n, sizeof line - (size_t)n, "  %.1f fps%s", fps, tail);
     }
-    fprintf(stderr, "\r\033[K%s%s", line, final ? "\n" : "");
+    char out[200];
+    int len = snprintf(out, sizeof out, "\r\033[K%s%s", line, final ? "\n" : "");
+    fp_emit(FP_MSG_PROGRESS, out, len < (int)sizeof out ? (size_t)len : sizeof out - 1);
     l->shown = !final;
     atomic_store(&sg.progress_shown, l->shown);
 }

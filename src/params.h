@@ -170,6 +170,7 @@ typedef struct fp_buffers_params_t {
 typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     int pipeline;         /* 1: read, compute and write on three threads */
     int progress;         /* FP_PROGRESS_* */
+    int catch_signals;    /* not an option: the program's SIGINT/SIGTERM handling */
     int skip_existing;    /* leave frames whose output exists alone */
     char *stats;          /* per-frame timings as JSON */
     int no_fog;           /* benchmark: read and write only (the I/O floor) */

@@ -292,50 +292,35 @@ done:
     return rc;
 }
 
-/* Stage 2, calling thread (it owns the device): fog one decoded frame and
- * composite it in place. */
-static int process_frame(run_t *r, fp_loop_job_t *job)
+/* Fog one frame held as RGBA and depth (info: its size, windows, camera
+ * attributes, chromaticities) and composite it in place, into the output
+ * color space; `fog` (n*4) gets S.rgb (working space) and tau; the frame's
+ * color conversions in *color (the fog layers need them).  `ms` gets the
+ * fogmap's and the fog's milliseconds.  Used by the frame loop and by the
+ * library's frames from memory (fp_session_frame). */
+static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t *info,
+                         float *rgba, const float *depth, const char *in_name, long frame,
+                         float *fog, fp_color_frame_t *color, double *ms, double *decompose_ms)
 {
     fp_params_t *p = r->p;
-    frame_state_t *fs = job->data;
-    fp_frame_t *f = fs->f;
-    const char *in_name = job->in;
-    long frame = job->frame;
-    int rc = FP_OK;
     double t0 = fp_now_ms();
-
-    const fp_frame_info_t *info = fp_frame_info(f);
-    fp_camera_t cam;
-    if ((rc = fp_camera_resolve(p, info, in_name, frame, &cam)))
-        goto done;
-    if (p->cmd.print_camera) {
-        fp_camera_print(stdout, &cam, info, in_name, frame);
-        goto done;
-    }
     fp_view_t view;
-    if ((rc = fp_view_setup(&cam, p, info, &view)))
-        goto done;
+    int rc;
+    if ((rc = fp_view_setup(cam, p, info, &view)))
+        return rc;
     double t_fogmap = fp_now_ms();
     /* The fog at this frame's time (wind, animated fogmap; its errors name
      * the fogmap's file and the frame). */
     if ((rc = fp_fogmap_frame(p, r->cl, &r->fogmap, frame, &view, &r->fog)))
-        goto done;
-    job->ms[FP_T_FOGMAP] = fp_now_ms() - t_fogmap;
-    job->decompose_ms = r->fogmap.decompose_ms;
+        return rc;
+    ms[FP_T_FOGMAP] = fp_now_ms() - t_fogmap;
+    *decompose_ms = r->fogmap.decompose_ms;
     size_t n = (size_t)info->width * info->height;
-    const float *depth = fp_frame_depth(f);
-    float *rgba = fp_frame_rgba(f);
-    float *fog = fs->fog = fog_get(r, n);
-    if (!fog) {
-        rc = fp_error("%s: frame %ld: out of memory", in_name, frame);
-        goto done;
-    }
-    fs->fog_px = n;
     long suspicious = 0;
     for (size_t i = 0; i < n; i++)
         suspicious += isnan(depth[i]) || depth[i] < 0;
     if ((rc = frame_fog(r, &view, depth, in_name, frame, fog)))
-        goto done;
+        return rc;
     if (suspicious)
         fp_warn("%s: frame %ld: %ld pixels with NaN or negative depth treated as sky",
                 in_name, frame, suspicious);
@@ -350,21 +335,51 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
         }
     }
     double t_composite = fp_now_ms();
-    job->ms[FP_T_FOG] = t_composite - t0 - job->ms[FP_T_FOGMAP];
+    ms[FP_T_FOG] = t_composite - t0 - ms[FP_T_FOGMAP];
     /* Plate input -> working space, composite and fog layers there, then
      * -> output space (filters/color.h; nothing happens by default). */
-    if ((rc = fp_color_frame(&r->color, info, in_name, frame, &fs->color)))
-        goto done;
-    fp_color_to_working(&fs->color, rgba, n);
+    if ((rc = fp_color_frame(&r->color, info, in_name, frame, color)))
+        return rc;
+    fp_color_to_working(color, rgba, n);
     fp_composite_process(rgba, fog, n, rgba);
+    fp_color_to_output(color, rgba, n);
+    ms[FP_T_COMPOSITE] = fp_now_ms() - t_composite;
+    return FP_OK;
+}
+
+/* Stage 2, calling thread (it owns the device): fog one decoded frame and
+ * composite it in place. */
+static int process_frame(run_t *r, fp_loop_job_t *job)
+{
+    fp_params_t *p = r->p;
+    frame_state_t *fs = job->data;
+    fp_frame_t *f = fs->f;
+    const char *in_name = job->in;
+    long frame = job->frame;
+    int rc;
+    const fp_frame_info_t *info = fp_frame_info(f);
+    fp_camera_t cam;
+    if ((rc = fp_camera_resolve(p, info, in_name, frame, &cam)))
+        return rc;
+    if (p->cmd.print_camera) {
+        fp_camera_print(stdout, &cam, info, in_name, frame);
+        return FP_OK;
+    }
+    size_t n = (size_t)info->width * info->height;
+    float *fog = fs->fog = fog_get(r, n);
+    if (!fog)
+        return fp_error("%s: frame %ld: out of memory", in_name, frame);
+    fs->fog_px = n;
+    if ((rc = fog_composite(r, &cam, info, fp_frame_rgba(f), fp_frame_depth(f), in_name, frame,
+                            fog, &fs->color, job->ms, &job->decompose_ms)))
+        return rc;
+    double t_aov = fp_now_ms();
     if ((rc = fp_aov_make(p, &fs->color, fog, n, in_name, frame, &fs->aov)))
-        goto done;
-    fp_color_to_output(&fs->color, rgba, n);
+        return rc;
     fp_color_write_opts(&fs->color, &fs->wopts);
     fp_aov_write_opts(p, &fs->aov, &fs->wopts);
-    job->ms[FP_T_COMPOSITE] = fp_now_ms() - t_composite;
-done:
-    return rc;
+    job->ms[FP_T_COMPOSITE] += fp_now_ms() - t_aov;
+    return FP_OK;
 }
 
 /* Stage 3, writer thread (frames arrive in order): encode the frame and
@@ -681,6 +696,30 @@ done:
     return rc;
 }
 
+/* What setup, fp_color_commit, fp_preview_commit and open_device made. */
+static void run_release(run_t *r)
+{
+    fp_preview_release(&r->preview);
+    fp_color_release(&r->color);
+    fp_fogmap_release(&r->fogmap);
+    fp_scatter_release(&r->light);
+    if (r->cl) {
+        fp_scatter_cl_release(&r->scl);
+        if (r->reference)
+            fp_reference_cl_release(&r->rcl);
+        if (r->buffers)
+            fp_buffers_cl_release(&r->bcl);
+        fp_integrate_cl_release(&r->icl);
+        fp_cl_close(r->cl);
+        r->cl = NULL;
+    }
+    for (size_t i = 0; i < FP_ARRAY_LEN(r->pool); i++) {
+        free(r->pool[i]);
+        r->pool[i] = NULL;
+    }
+    pthread_mutex_destroy(&r->pool_mu);
+}
+
 int fp_pipeline_run(fp_params_t *p)
 {
     run_t r;
@@ -702,7 +741,7 @@ int fp_pipeline_run(fp_params_t *p)
                               "stream on stdout");
     /* Before the libraries start threads (OpenColorIO, the OpenCL driver):
      * they inherit the blocked signals (src/frameloop.h). */
-    if (rc == FP_OK)
+    if (rc == FP_OK && p->run.catch_signals)
         rc = fp_loop_signals_start();
     /* Color spaces, display, view and preview names: checked before any
      * frame is read (filters/color.h, filters/preview.h). */
@@ -730,22 +769,78 @@ int fp_pipeline_run(fp_params_t *p)
     }
     if (rc == FP_OK && !p->cmd.print_camera)
         rc = fp_preview_finish(&r.preview);
-    fp_preview_release(&r.preview);
-    fp_color_release(&r.color);
-    fp_fogmap_release(&r.fogmap);
-    fp_scatter_release(&r.light);
-    if (r.cl) {
-        fp_scatter_cl_release(&r.scl);
-        if (r.reference)
-            fp_reference_cl_release(&r.rcl);
-        if (r.buffers)
-            fp_buffers_cl_release(&r.bcl);
-        fp_integrate_cl_release(&r.icl);
-        fp_cl_close(r.cl);
-    }
-    for (size_t i = 0; i < FP_ARRAY_LEN(r.pool); i++)
-        free(r.pool[i]);
-    pthread_mutex_destroy(&r.pool_mu);
+    run_release(&r);
     fp_loop_signals_stop();
     return rc;
+}
+
+/* ------------------------------------------------------------ frames from memory */
+
+struct fp_session_t {
+    run_t r;
+};
+
+int fp_session_open(fp_params_t *p, fp_session_t **out)
+{
+    *out = NULL;
+    fp_session_t *s = calloc(1, sizeof *s);
+    if (!s)
+        return fp_error("out of memory");
+    s->r.p = p;
+    pthread_mutex_init(&s->r.pool_mu, NULL);
+    int rc = setup(&s->r);
+    if (rc == FP_OK)
+        rc = fp_color_commit(p, &s->r.color);
+    if (rc == FP_OK)
+        rc = open_device(&s->r);
+    if (rc) {
+        fp_session_close(s);
+        return rc;
+    }
+    *out = s;
+    return FP_OK;
+}
+
+int fp_session_frame(fp_session_t *s, const fp_frame_info_t *info, float *rgba,
+                     const float *depth, const char *name, long frame, float *fog_rgba,
+                     float *transmittance)
+{
+    run_t *r = &s->r;
+    fp_camera_t cam;
+    int rc = fp_camera_resolve(r->p, info, name, frame, &cam);
+    if (rc)
+        return rc;
+    size_t n = (size_t)info->width * info->height;
+    float *fog = malloc(n * 4 * sizeof *fog);
+    if (!fog)
+        return fp_error("%s: frame %ld: out of memory", name, frame);
+    fp_color_frame_t color;
+    double ms[FP_T_COUNT] = { 0 }, decompose_ms = 0;
+    rc = fog_composite(r, &cam, info, rgba, depth, name, frame, fog, &color, ms, &decompose_ms);
+    if (rc == FP_OK && (fog_rgba || transmittance)) {
+        /* The layers of --aov, whatever the options say. */
+        fp_params_t q = *r->p;
+        q.aov.aov = 1;
+        fp_aov_frame_t a;
+        if ((rc = fp_aov_make(&q, &color, fog, n, name, frame, &a)) == FP_OK) {
+            for (size_t i = 0; i < n; i++)
+                for (int c = 0; c < 4; c++) {
+                    if (fog_rgba)
+                        fog_rgba[4 * i + c] = a.planes[(size_t)c * n + i];
+                    if (transmittance && c < 3)
+                        transmittance[3 * i + c] = a.planes[(size_t)(4 + c) * n + i];
+                }
+            fp_aov_free(&a);
+        }
+    }
+    free(fog);
+    return rc;
+}
+
+void fp_session_close(fp_session_t *s)
+{
+    if (!s)
+        return;
+    run_release(&s->r);
+    free(s);
 }

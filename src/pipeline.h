@@ -6,10 +6,24 @@
 #ifndef FP_PIPELINE_H
 #define FP_PIPELINE_H
 
+#include "exrio.h"
 #include "params.h"
 
 /* Returns FP_OK, FP_ERR (runtime error), FP_EUSAGE, or FP_ESIGNAL + the
  * signal number when SIGINT or SIGTERM stopped the run (src/frameloop.h). */
 int fp_pipeline_run(fp_params_t *p);
+
+/* Frames held in memory (the library's fogpipe_apply): a session keeps the
+ * device, programs, fogmap and color processors of `p` (which must outlive
+ * it and not change) across frames. */
+typedef struct fp_session_t fp_session_t;
+int fp_session_open(fp_params_t *p, fp_session_t **out);
+/* Fog and composite `rgba` (info->width x height RGBA) in place with
+ * `depth`; the fog layers of --aov into fog_rgba (n*4) and transmittance
+ * (n*3) when not NULL.  Messages name `name` and `frame`. */
+int fp_session_frame(fp_session_t *s, const fp_frame_info_t *info, float *rgba,
+                     const float *depth, const char *name, long frame, float *fog_rgba,
+                     float *transmittance);
+void fp_session_close(fp_session_t *s);
 
 #endif

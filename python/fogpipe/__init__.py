@@ -1,0 +1,210 @@
+"""fogpipe: physically based fog for rendered images, from Python.
+
+A thin ctypes layer over libfogpipe (fogpipe.h): the same options, values
+and messages as the fogpipe command line.
+
+    import numpy as np, fogpipe
+    out = fogpipe.apply(rgba, depth, world_to_camera=w2c, world_to_ndc=w2n,
+                        density=0.05, height=(0, 4), fog_color=(0.7, 0.72, 0.75))
+    out, fog, tau = fogpipe.apply(rgba, depth, ..., aov=True)
+    fogpipe.apply_file("shot.####.exr", "fogged.####.exr", frames="1-10",
+                       preset="low-sun-shafts")
+
+Options are the command line's long options with "-" written "_"; a value
+is a number, a string, a bool (a flag) or a sequence (joined by commas).
+`preset` is applied first, the other options after it (they win).  Bad
+arrays or options raise fogpipe.Error with the library's message.
+"""
+
+import ctypes
+import ctypes.util
+import os
+
+import numpy as np
+
+__all__ = ["apply", "apply_file", "version", "Error", "Context"]
+
+
+class Error(RuntimeError):
+    """A fogpipe call failed; the message is the library's."""
+
+
+def _load():
+    tried = []
+    env = os.environ.get("FOGPIPE_LIBRARY")
+    if env:
+        tried.append(env)
+    try:
+        from . import _config  # written by make install
+        tried.append(_config.LIBRARY)
+    except ImportError:
+        pass
+    found = ctypes.util.find_library("fogpipe")
+    if found:
+        tried.append(found)
+    tried.append("libfogpipe.so.0")
+    errors = []
+    for name in tried:
+        try:
+            return ctypes.CDLL(name)
+        except OSError as e:
+            errors.append(str(e))
+    raise ImportError("fogpipe: cannot load libfogpipe (tried %s): %s"
+                      % (", ".join(tried), "; ".join(errors)))
+
+
+_lib = _load()
+_c_float_p = ctypes.POINTER(ctypes.c_float)
+_c_double_p = ctypes.POINTER(ctypes.c_double)
+
+
+class _Frame(ctypes.Structure):
+    _fields_ = [("width", ctypes.c_int), ("height", ctypes.c_int),
+                ("rgba", _c_float_p), ("depth", _c_float_p),
+                ("world_to_camera", _c_double_p), ("world_to_ndc", _c_double_p),
+                ("frame", ctypes.c_long), ("name", ctypes.c_char_p)]
+
+
+_lib.fogpipe_new.argtypes = [ctypes.POINTER(ctypes.c_void_p)]
+_lib.fogpipe_new.restype = ctypes.c_int
+_lib.fogpipe_free.argtypes = [ctypes.c_void_p]
+_lib.fogpipe_free.restype = None
+_lib.fogpipe_error.argtypes = [ctypes.c_void_p]
+_lib.fogpipe_error.restype = ctypes.c_char_p
+_lib.fogpipe_version.argtypes = []
+_lib.fogpipe_version.restype = ctypes.c_char_p
+_lib.fogpipe_set.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_char_p,
+                             ctypes.c_char_p]
+_lib.fogpipe_set.restype = ctypes.c_int
+_lib.fogpipe_apply.argtypes = [ctypes.c_void_p, ctypes.POINTER(_Frame), _c_float_p,
+                               _c_float_p, _c_float_p]
+_lib.fogpipe_apply.restype = ctypes.c_int
+_lib.fogpipe_run.argtypes = [ctypes.c_void_p, ctypes.c_int]
+_lib.fogpipe_run.restype = ctypes.c_int
+
+
+def version():
+    """The library's version string."""
+    return _lib.fogpipe_version().decode()
+
+
+def _value(v):
+    if isinstance(v, bool):
+        return "1" if v else "0"
+    if isinstance(v, (str, bytes)):
+        return v if isinstance(v, str) else v.decode()
+    if isinstance(v, np.ndarray):
+        v = v.ravel().tolist()
+    if isinstance(v, (list, tuple)):
+        return ",".join(_value(x) for x in v)
+    if isinstance(v, (int, float, np.integer, np.floating)):
+        return repr(float(v)) if isinstance(v, (float, np.floating)) else str(int(v))
+    raise Error("fogpipe: option value %r: expected a number, a string, a bool or a "
+                "sequence of them" % (v,))
+
+
+class Context:
+    """A libfogpipe context: options set once, frames applied many times
+    (the device, programs and fogmap are kept between frames)."""
+
+    def __init__(self, **options):
+        h = ctypes.c_void_p()
+        if _lib.fogpipe_new(ctypes.byref(h)) != 0:
+            raise MemoryError("fogpipe: cannot make a context")
+        self._h = h
+        self.set(**options)
+
+    def close(self):
+        if self._h:
+            _lib.fogpipe_free(self._h)
+            self._h = None
+
+    def __del__(self):
+        self.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def _check(self, rc):
+        if rc != 0:
+            raise Error(_lib.fogpipe_error(self._h).decode(errors="replace"))
+
+    def set(self, **options):
+        """Set options by the command line's long names, "-" written "_"."""
+        items = list(options.items())
+        items.sort(key=lambda kv: kv[0] != "preset")  # the preset first
+        for name, value in items:
+            if value is None:
+                continue
+            opt = name.replace("_", "-")
+            self._check(_lib.fogpipe_set(self._h, opt.encode(), _value(value).encode(),
+                                         ("fogpipe: %s=%r" % (name, value)).encode()))
+
+    def apply(self, rgba, depth, world_to_camera=None, world_to_ndc=None, frame=1, aov=False):
+        """Fog one frame: rgba HxWx4 and depth HxW (float32, or convertible),
+        the camera as OpenEXR's 4x4 worldToCamera and worldToNDC (row
+        vectors), or from the options.  Returns the composite (HxWx4
+        float32), and with aov=True also the fog layer (HxWx4: light, and
+        alpha 1 - transmittance) and the transmittance (HxWx3)."""
+        rgba = np.asarray(rgba)
+        depth = np.asarray(depth)
+        if rgba.ndim != 3 or rgba.shape[2] != 4:
+            raise Error("fogpipe.apply: rgba has shape %s (expected height x width x 4)"
+                        % (rgba.shape,))
+        h, w = rgba.shape[:2]
+        if depth.shape != (h, w):
+            raise Error("fogpipe.apply: depth has shape %s (expected %s, the rgba's height "
+                        "and width)" % (depth.shape, (h, w)))
+        if h < 1 or w < 1:
+            raise Error("fogpipe.apply: an empty image (%dx%d)" % (w, h))
+        for n, a in (("rgba", rgba), ("depth", depth)):
+            if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+                raise Error("fogpipe.apply: %s has dtype %s (expected float32)" % (n, a.dtype))
+        rgba = np.ascontiguousarray(rgba, dtype=np.float32)
+        depth = np.ascontiguousarray(depth, dtype=np.float32)
+        mats = []
+        for n, m in (("world_to_camera", world_to_camera), ("world_to_ndc", world_to_ndc)):
+            if m is None:
+                mats.append(None)
+                continue
+            m = np.ascontiguousarray(m, dtype=np.float64)
+            if m.shape != (4, 4) and m.shape != (16,):
+                raise Error("fogpipe.apply: %s has shape %s (expected 4x4)" % (n, m.shape))
+            mats.append(m)
+        fr = _Frame()
+        fr.width, fr.height = w, h
+        fr.rgba = rgba.ctypes.data_as(_c_float_p)
+        fr.depth = depth.ctypes.data_as(_c_float_p)
+        fr.world_to_camera = mats[0].ctypes.data_as(_c_double_p) if mats[0] is not None else None
+        fr.world_to_ndc = mats[1].ctypes.data_as(_c_double_p) if mats[1] is not None else None
+        fr.frame = int(frame)
+        fr.name = b"<numpy>"
+        out = np.empty((h, w, 4), dtype=np.float32)
+        fog = np.empty((h, w, 4), dtype=np.float32) if aov else None
+        tau = np.empty((h, w, 3), dtype=np.float32) if aov else None
+        self._check(_lib.fogpipe_apply(
+            self._h, ctypes.byref(fr), out.ctypes.data_as(_c_float_p),
+            fog.ctypes.data_as(_c_float_p) if aov else None,
+            tau.ctypes.data_as(_c_float_p) if aov else None))
+        return (out, fog, tau) if aov else out
+
+    def run(self):
+        """Run the options' files or streams (input, output, frames...)."""
+        self._check(_lib.fogpipe_run(self._h, 0))
+
+
+def apply(rgba, depth, world_to_camera=None, world_to_ndc=None, frame=1, aov=False, **options):
+    """Fog one frame held in NumPy arrays with the given options (see
+    Context.apply); returns the composite, or (composite, fog, transmittance)
+    with aov=True."""
+    with Context(**options) as c:
+        return c.apply(rgba, depth, world_to_camera, world_to_ndc, frame=frame, aov=aov)
+
+
+def apply_file(input, output, **options):
+    """Fog files or sequences ("shot.####.exr") as the command line does."""
+    with Context(input=input, output=output, **options) as c:
+        c.run()

@@ -1,0 +1,282 @@
+/* libfogpipe's public API (fogpipe.h) over the engine: options, the frame
+ * pipeline for files and streams, sessions for frames in memory.  The only
+ * file whose symbols the shared library exports (src/libfogpipe.map). */
+#include "fogpipe.h"
+
+#include "clrt.h"
+#include "color.h"
+#include "exrio.h"
+#include "fp.h"
+#include "options.h"
+#include "pipeline.h"
+
+#include "config.h"
+
+#include <limits.h>
+#include <pthread.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct fogpipe {
+    fp_params_t p;
+    fp_session_t *session;    /* frames in memory: made by the first apply */
+    fogpipe_message_fn fn;
+    void *user;
+    char msg[2048];           /* the last failed call's message */
+    char last[2048];          /* the last error-like line of the call in progress */
+};
+
+/* One call at a time in the process (fogpipe.h, Threads): the emitter and
+ * fp_quiet/fp_verbose are process-wide. */
+static pthread_mutex_t api_lock = PTHREAD_MUTEX_INITIALIZER;
+
+/* Keep the last line that is not a warning or progress (the error a failed
+ * call printed last), and hand the text to the context's handler. */
+static void api_emit(void *user, int kind, const char *text, size_t len)
+{
+    fogpipe_t *c = user;
+    if (kind == FP_MSG_ERROR || kind == FP_MSG_KEPT) {
+        const char *p = text, *end = text + len;
+        while (p < end) {
+            const char *nl = memchr(p, '\n', (size_t)(end - p));
+            const char *e = nl ? nl : end;
+            size_t n = (size_t)(e - p);
+            if (n && strncmp(p, "fogpipe: warning: ", n < 18 ? n : 18) != 0) {
+                /* Without the "fogpipe: " of the program's lines. */
+                if (n > 9 && strncmp(p, "fogpipe: ", 9) == 0) {
+                    p += 9;
+                    n -= 9;
+                }
+                if (n >= sizeof c->last)
+                    n = sizeof c->last - 1;
+                memcpy(c->last, p, n);
+                c->last[n] = 0;
+            }
+            p = nl ? nl + 1 : end;
+        }
+    }
+    if (!c->fn)
+        return;
+    char buf[4096];
+    char *t = len < sizeof buf ? buf : malloc(len + 1);
+    if (!t)
+        return;
+    memcpy(t, text, len);
+    t[len] = 0;
+    c->fn(c->user, kind, t);
+    if (t != buf)
+        free(t);
+}
+
+static void enter(fogpipe_t *c)
+{
+    pthread_mutex_lock(&api_lock);
+    fp_msg_set_emitter(api_emit, c);
+    fp_quiet = c->p.io.quiet;
+    fp_verbose = c->p.io.verbose;
+    c->last[0] = 0;
+}
+
+/* The call's status; its message kept when it failed. */
+static int leave(fogpipe_t *c, int rc)
+{
+    if (rc != FP_OK) {
+        snprintf(c->msg, sizeof c->msg, "%s",
+                 c->last[0] ? c->last : "fogpipe: failed (no message)");
+    } else {
+        c->msg[0] = 0;
+    }
+    fp_msg_set_emitter(NULL, NULL);
+    pthread_mutex_unlock(&api_lock);
+    return rc;
+}
+
+/* A call on a NULL context or with bad arguments: no context to keep the
+ * message in, or a message of our own. */
+static int fail(fogpipe_t *c, int rc, const char *fmt, const char *a)
+{
+    snprintf(c->last, sizeof c->last, fmt, a ? a : "");
+    return rc;
+}
+
+const char *fogpipe_version(void)
+{
+    return PACKAGE_VERSION;
+}
+
+int fogpipe_new(fogpipe_t **out)
+{
+    if (!out)
+        return FOGPIPE_EUSAGE;
+    *out = NULL;
+    fogpipe_t *c = calloc(1, sizeof *c);
+    if (!c)
+        return FOGPIPE_ERROR;
+    enter(c);
+    int rc = fp_options_defaults(&c->p);
+    leave(c, rc);
+    if (rc) {
+        fp_options_free(&c->p);
+        free(c);
+        return rc;
+    }
+    *out = c;
+    return FOGPIPE_OK;
+}
+
+static void drop_session(fogpipe_t *c)
+{
+    fp_session_close(c->session);
+    c->session = NULL;
+}
+
+void fogpipe_free(fogpipe_t *c)
+{
+    if (!c)
+        return;
+    enter(c);
+    drop_session(c);
+    fp_options_free(&c->p);
+    leave(c, FP_OK);
+    free(c);
+}
+
+const char *fogpipe_error(const fogpipe_t *c)
+{
+    return c ? c->msg : "fogpipe_error: no context (NULL)";
+}
+
+void fogpipe_set_message_handler(fogpipe_t *c, fogpipe_message_fn fn, void *user)
+{
+    if (!c)
+        return;
+    pthread_mutex_lock(&api_lock);
+    c->fn = fn;
+    c->user = user;
+    pthread_mutex_unlock(&api_lock);
+}
+
+int fogpipe_set(fogpipe_t *c, const char *name, const char *value, const char *origin)
+{
+    if (!c)
+        return FOGPIPE_EUSAGE;
+    enter(c);
+    int rc;
+    if (!name || !*name) {
+        rc = fail(c, FP_EUSAGE, "fogpipe_set: no option name%s", NULL);
+        return leave(c, rc);
+    }
+    if (strncmp(name, "--", 2) == 0)
+        name += 2;
+    const fp_option_t *o = fp_options_find(name);
+    if (!origin)
+        origin = "fogpipe_set";
+    if (!o) {
+        rc = fp_usage_error("%s: unknown option --%s (see fogpipe --help)", origin, name);
+    } else if (strcmp(o->name, "preset") == 0) {
+        rc = value ? fp_options_load_preset(&c->p, value)
+                   : fp_usage_error("%s: --preset needs a NAME or FILE", origin);
+    } else {
+        if (!value && o->type != FP_OPT_FLAG)
+            rc = fp_usage_error("%s: --%s needs a value", origin, o->name);
+        else
+            rc = fp_options_apply(&c->p, o->name, value ? value : "1", origin);
+    }
+    /* The next frame sets up again with the new options. */
+    drop_session(c);
+    return leave(c, rc);
+}
+
+int fogpipe_parse_args(fogpipe_t *c, int argc, char **argv)
+{
+    if (!c)
+        return FOGPIPE_EUSAGE;
+    enter(c);
+    int rc;
+    if (argc < 1 || !argv) {
+        rc = fail(c, FP_EUSAGE, "fogpipe_parse_args: no argv%s", NULL);
+        return leave(c, rc);
+    }
+    rc = fp_options_parse(argc, argv, &c->p);
+    c->p.cmd.argc = argc;
+    c->p.cmd.argv = argv;
+    fp_quiet = c->p.io.quiet;
+    fp_verbose = c->p.io.verbose;
+    if (rc == FP_OK && c->p.io.preset)
+        fp_info("preset: %s", c->p.io.preset);
+    drop_session(c);
+    return leave(c, rc);
+}
+
+int fogpipe_apply(fogpipe_t *c, const fogpipe_frame_t *in, float *out_rgba, float *out_fog_rgba,
+                  float *out_transmittance)
+{
+    if (!c)
+        return FOGPIPE_EUSAGE;
+    enter(c);
+    int rc = FP_OK;
+    if (!in || !in->rgba || !in->depth || !out_rgba)
+        return leave(c, fail(c, FP_EUSAGE, "fogpipe_apply: %s is NULL (expected the frame's "
+                                           "rgba and depth arrays and an output array)",
+                             !in ? "the frame" : !in->rgba ? "rgba" : !in->depth ? "depth"
+                                                                               : "out_rgba"));
+    if (in->width < 1 || in->height < 1 || (size_t)in->width > SIZE_MAX / 16 / (size_t)in->height ||
+        (long long)in->width * in->height > INT_MAX) {
+        char dims[64];
+        snprintf(dims, sizeof dims, "%dx%d", in->width, in->height);
+        return leave(c, fail(c, FP_EUSAGE, "fogpipe_apply: a frame of %s pixels (expected a "
+                                           "width and height of at least 1)", dims));
+    }
+    const char *name = in->name ? in->name : "<memory>";
+    fp_frame_info_t info;
+    memset(&info, 0, sizeof info);
+    info.width = info.disp_w = in->width;
+    info.height = info.disp_h = in->height;
+    info.pixel_aspect = 1;
+    info.num_parts = 1;
+    info.has_alpha = 1;
+    if (in->world_to_camera) {
+        info.has_world_to_camera = 1;
+        memcpy(info.world_to_camera, in->world_to_camera, sizeof info.world_to_camera);
+    }
+    if (in->world_to_ndc) {
+        info.has_world_to_ndc = 1;
+        memcpy(info.world_to_ndc, in->world_to_ndc, sizeof info.world_to_ndc);
+    }
+    if (!c->session && (rc = fp_session_open(&c->p, &c->session)))
+        return leave(c, rc);
+    size_t n = (size_t)in->width * in->height;
+    if (out_rgba != in->rgba)
+        memmove(out_rgba, in->rgba, n * 4 * sizeof *out_rgba);
+    rc = fp_session_frame(c->session, &info, out_rgba, in->depth, name, in->frame, out_fog_rgba,
+                          out_transmittance);
+    return leave(c, rc);
+}
+
+int fogpipe_run(fogpipe_t *c, int flags)
+{
+    if (!c)
+        return FOGPIPE_EUSAGE;
+    enter(c);
+    fp_params_t *p = &c->p;
+    int rc;
+    if (p->cmd.help || p->cmd.help_markdown) {
+        fp_options_print_help(stdout, p->cmd.help_markdown);
+        rc = FP_OK;
+    } else if (p->cmd.version) {
+        printf("%s %s\n", PACKAGE_NAME, PACKAGE_VERSION);
+        rc = FP_OK;
+    } else if (p->cmd.list_devices) {
+        rc = fp_cl_list_devices(stdout);
+    } else if (p->color.list_spaces) {
+        rc = fp_color_list(p, stdout);
+    } else {
+        p->run.catch_signals = (flags & FOGPIPE_RUN_SIGNALS) != 0;
+        rc = fp_pipeline_run(p);
+    }
+    if (fflush(stdout) != 0 && rc == FP_OK)
+        rc = fp_error("<stdout>: write failed");
+    return leave(c, rc);
+}

@@ -1,0 +1,39 @@
+/* fogpipe: add physically based fog to color + depth OpenEXR frames.
+ *
+ * The program is the library's public API (fogpipe.h) and nothing else:
+ * parse the command line, run it, print what the library reports on
+ * stderr, turn the status into the exit status. */
+#include "fogpipe.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+static void to_stderr(void *user, int kind, const char *text)
+{
+    (void)user;
+    (void)kind;
+    fputs(text, stderr);
+    if (kind == FOGPIPE_MSG_PROGRESS)
+        fflush(stderr);
+}
+
+int main(int argc, char **argv)
+{
+    fogpipe_t *fp;
+    if (fogpipe_new(&fp) != FOGPIPE_OK) {
+        fputs("fogpipe: out of memory\n", stderr);
+        return 1;
+    }
+    fogpipe_set_message_handler(fp, to_stderr, NULL);
+    /* The environment's default, below presets and the command line. */
+    const char *progress = getenv("FOGPIPE_PROGRESS");
+    int rc = FOGPIPE_OK;
+    if (progress && *progress)
+        rc = fogpipe_set(fp, "progress", progress, "$FOGPIPE_PROGRESS");
+    if (rc == FOGPIPE_OK)
+        rc = fogpipe_parse_args(fp, argc, argv);
+    if (rc == FOGPIPE_OK)
+        rc = fogpipe_run(fp, FOGPIPE_RUN_SIGNALS);
+    fogpipe_free(fp);
+    return rc == FOGPIPE_OK ? 0 : rc == FOGPIPE_EUSAGE ? 2 : rc > FOGPIPE_ESIGNAL ? rc : 1;
+}

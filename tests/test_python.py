@@ -1,0 +1,116 @@
+"""The Python module (python/fogpipe) against the command line: run by
+tests/api.sh as  python3 tests/test_python.py FRAME.bin CLI.exr-made-by-the-test OUTDIR.
+Prints TAP lines; exit 1 when one fails."""
+import sys
+
+import numpy as np
+
+import fogpipe
+
+frame_bin, outdir = sys.argv[1], sys.argv[2]
+n = 0
+failed = 0
+
+
+def check(desc, fn):
+    global n, failed
+    n += 1
+    try:
+        fn()
+        print("ok %d - %s" % (n, desc))
+    except Exception as e:  # noqa: BLE001 - every failure is a TAP line
+        failed += 1
+        print("not ok %d - %s" % (n, desc))
+        for line in ("%s: %s" % (type(e).__name__, e)).splitlines():
+            print("# " + line)
+
+
+def load(path):
+    raw = open(path, "rb").read()
+    w, h = np.frombuffer(raw, dtype=np.int32, count=2)
+    m = np.frombuffer(raw, dtype=np.float64, count=32, offset=8)
+    px = np.frombuffer(raw, dtype=np.float32, offset=8 + 256)
+    rgba = px[: w * h * 4].reshape(h, w, 4)
+    depth = px[w * h * 4: w * h * 5].reshape(h, w)
+    return rgba, depth, m[:16].reshape(4, 4), m[16:].reshape(4, 4)
+
+
+rgba, depth, w2c, w2n = load(frame_bin)
+opts = dict(density=0.05, height=(0, 4), fog_color=(0.7, 0.72, 0.75))
+
+
+def save(path, img):
+    h, w = img.shape[:2]
+    with open(path, "wb") as f:
+        f.write(np.array([w, h], dtype=np.int32).tobytes())
+        f.write(np.concatenate([w2c.ravel(), w2n.ravel()]).astype(np.float64).tobytes())
+        f.write(np.ascontiguousarray(img, dtype=np.float32).tobytes())
+
+
+def composite():
+    out = fogpipe.apply(rgba, depth, world_to_camera=w2c, world_to_ndc=w2n, **opts)
+    assert out.shape == rgba.shape and out.dtype == np.float32, (out.shape, out.dtype)
+    assert not np.allclose(out, rgba), "no fog was added"
+    save(outdir + "/py.bin", out)
+
+
+check("fogpipe.apply: an HxWx4 float32 composite (compared with the CLI by api.sh)", composite)
+
+
+def layers():
+    out, fog, tau = fogpipe.apply(rgba, depth, world_to_camera=w2c, world_to_ndc=w2n,
+                                  aov=True, **opts)
+    assert fog.shape == rgba.shape and tau.shape == rgba.shape[:2] + (3,)
+    over = fog[..., :3] + rgba[..., :3] * (1 - fog[..., 3:4])
+    d = float(np.abs(over - out[..., :3]).max())
+    print("# fog over plate vs composite: max |d| %.3g" % d)
+    assert d <= 1e-5, d
+    assert np.allclose(fog[..., 3], 1 - tau[..., 0], atol=1e-6)
+
+
+check("aov=True: fog over the plate is the composite, fog.A = 1 - transmittance", layers)
+
+
+def preset_wins():
+    a = fogpipe.apply(rgba, depth, world_to_camera=w2c, world_to_ndc=w2n,
+                      preset="night-street-lamps", density=0.01)
+    b = fogpipe.apply(rgba, depth, world_to_camera=w2c, world_to_ndc=w2n,
+                      preset="night-street-lamps")
+    assert not np.array_equal(a, b), "density after the preset changed nothing"
+
+
+check("preset= first, the other options win over it", preset_wins)
+
+
+def raises(fn, text):
+    try:
+        fn()
+    except fogpipe.Error as e:
+        assert text in str(e), "message %r lacks %r" % (str(e), text)
+        return
+    raise AssertionError("no fogpipe.Error")
+
+
+def apply_with(**kw):
+    args = dict(rgba=rgba, depth=depth, world_to_camera=w2c, world_to_ndc=w2n)
+    args.update(kw)
+    return lambda: fogpipe.apply(**args)
+
+
+check("wrong rgba shape raises", lambda: raises(apply_with(rgba=rgba[..., :3]), "rgba has shape"))
+check("depth of another size raises", lambda: raises(apply_with(depth=depth[1:]), "depth has shape"))
+check("a string array raises", lambda: raises(apply_with(depth=np.full(depth.shape, "x")), "dtype"))
+check("a 3x3 matrix raises", lambda: raises(apply_with(world_to_ndc=np.eye(3)), "expected 4x4"))
+check("an empty image raises", lambda: raises(
+    apply_with(rgba=np.zeros((0, 4, 4), np.float32), depth=np.zeros((0, 4), np.float32)), "empty"))
+check("an unknown option raises with the library's message",
+      lambda: raises(apply_with(densty=0.1), "unknown option --densty"))
+check("a value out of range raises with the library's message",
+      lambda: raises(apply_with(density=-1), "--density: -1 is out of range"))
+check("no camera raises (not a crash)", lambda: raises(
+    lambda: fogpipe.apply(rgba, depth), "camera"))
+check("float64 and non-contiguous arrays are accepted", lambda: fogpipe.apply(
+    rgba.astype(np.float64)[:, ::-1], depth[:, ::-1], world_to_camera=w2c, world_to_ndc=w2n))
+
+print("1..%d" % n)
+sys.exit(1 if failed else 0)
