@@ -153,17 +153,32 @@ void transcode_pixels(Imf::MultiPartInputFile &in, Imf::MultiPartOutputFile &out
     }
     Imf::InputPart ip(in, p);
     ip.setFrameBuffer(fb);
-    ip.readPixels(dw.min.y, dw.max.y);
+    if (h.lineOrder() == Imf::DECREASING_Y) {
+        // The C++ reader takes a decreasing part's chunks one after the
+        // other from the file, so they must lie there in decreasing order;
+        // OpenEXR 3.1's C writer stores them increasing (the offset table
+        // is right).  Line by line upwards, the reader seeks to each chunk
+        // through the offset table (a chunk read once serves its lines).
+        for (int y = dw.min.y; y <= dw.max.y; ++y)
+            ip.readPixels(y);
+    } else {
+        ip.readPixels(dw.min.y, dw.max.y);
+    }
     Imf::OutputPart op(out, p);
     op.setFrameBuffer(fb);
     op.writePixels(dw.max.y - dw.min.y + 1);
 }
 
 // A part whose header is unchanged: its chunks are copied as they are.
+// Not for decreasing line order: copying reads the chunks in file order,
+// which a C-written decreasing part does not have (see transcode_pixels).
 void copy_chunks(Imf::MultiPartInputFile &in, Imf::MultiPartOutputFile &out,
                  int p)
 {
-    if (part_is_tiled(in.header(p))) {
+    const Imf::Header &h = in.header(p);
+    if (!part_is_tiled(h) && h.lineOrder() == Imf::DECREASING_Y) {
+        transcode_pixels(in, out, p);
+    } else if (part_is_tiled(h)) {
         Imf::TiledInputPart ip(in, p);
         Imf::TiledOutputPart op(out, p);
         op.copyPixels(ip);
