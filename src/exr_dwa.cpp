@@ -113,6 +113,17 @@ bool is_dwa(Imf::Compression c)
     return c == Imf::DWAA_COMPRESSION || c == Imf::DWAB_COMPRESSION;
 }
 
+// Parts the C library must not decode: DWA, which it lacks, and B44/B44A,
+// whose 3.1 decoder misreads float channels in files the C++ library
+// wrote (oiiotool's all-float B44 comes back with inf and swapped values;
+// tests/dwa.sh).  Once the C++ library decodes an image, it decodes these
+// parts of it.
+bool needs_cxx(int c)
+{
+    return c == Imf::DWAA_COMPRESSION || c == Imf::DWAB_COMPRESSION ||
+           c == Imf::B44_COMPRESSION || c == Imf::B44A_COMPRESSION;
+}
+
 bool part_is_tiled(const Imf::Header &h)
 {
     return h.hasType() ? Imf::isTiled(h.type()) : h.hasTileDescription();
@@ -245,10 +256,13 @@ extern "C" int fp_dwa_probe(const void *buf, size_t size)
         return 0;
     bool multipart = (rd_u32(b + 4) & 0x1000) != 0;
     size_t pos = 8;
+    int verdict = 0;
     // Headers: attributes "name\0type\0" size value, each header ending
     // with an empty name; a multipart file's list ends with an empty header.
     for (;;) {
         bool empty = true;
+        int comp = -1;
+        bool nonhalf = false;
         for (;;) {
             const unsigned char *name = b + pos;
             const void *nul = pos < size ? std::memchr(name, 0, size - pos) : nullptr;
@@ -270,77 +284,113 @@ extern "C" int fp_dwa_probe(const void *buf, size_t size)
             pos += 4;
             if (as > size - pos)
                 return 0;
-            if (nl == 11 && std::memcmp(name, "compression", 11) == 0 && as == 1 &&
-                (b[pos] == Imf::DWAA_COMPRESSION || b[pos] == Imf::DWAB_COMPRESSION))
-                return 1;
+            if (nl == 11 && std::memcmp(name, "compression", 11) == 0 && as == 1)
+                comp = b[pos];
+            if (nl == 8 && std::memcmp(name, "channels", 8) == 0) {
+                // entries "name\0" type(4) pLinear(1) reserved(3) xs(4) ys(4)
+                size_t q = pos, end = pos + as;
+                while (q < end && b[q] != 0) {
+                    const void *z = std::memchr(b + q, 0, end - q);
+                    if (!z)
+                        return 0;
+                    q = static_cast<size_t>(static_cast<const unsigned char *>(z) - b) + 1;
+                    if (end - q < 16)
+                        return 0;
+                    if (rd_u32(b + q) != 1) // not HALF
+                        nonhalf = true;
+                    q += 16;
+                }
+            }
             pos += as;
         }
+        if (comp == Imf::DWAA_COMPRESSION || comp == Imf::DWAB_COMPRESSION)
+            return FP_DWA_REQUIRED;
+        if ((comp == Imf::B44_COMPRESSION || comp == Imf::B44A_COMPRESSION) && nonhalf)
+            verdict = FP_DWA_PREFERRED;
         if (!multipart || empty)
-            return 0;
+            return verdict;
     }
 }
 
-extern "C" int fp_dwa_decode(const void *buf, size_t size, const char *where,
-                             long frame, void **out, size_t *out_size,
-                             int **part_comp, int *num_parts)
+namespace {
+
+// fp_dwa_decode's work; throws on any failure, sets the outputs only when
+// all is done.
+void decode_image(const void *buf, size_t size, const char *w, void **out,
+                  size_t *out_size, int **part_comp, int *num_parts)
+{
+    MemIStream is(w, static_cast<const char *>(buf), size);
+    // A missing chunk must fail loudly, as on the C path.
+    Imf::MultiPartInputFile in(is, Imf::globalThreadCount(), false);
+    int np = in.parts();
+    std::vector<Imf::Header> headers;
+    std::vector<int> comp(static_cast<size_t>(np));
+    for (int p = 0; p < np; ++p) {
+        Imf::Header h = in.header(p);
+        if (part_is_deep(h))
+            throw Iex::ArgExc("part " + std::to_string(p) + " holds deep data, which is "
+                              "not supported (expected flat scanline or tiled images)");
+        comp[static_cast<size_t>(p)] = static_cast<int>(h.compression());
+        if (needs_cxx(h.compression())) {
+            h.compression() = Imf::NO_COMPRESSION;
+            if (part_is_tiled(h)) {
+                // The C path reads level 0 of a tiled part and writes
+                // scanlines: level 0 as scanlines is all it needs.
+                h.erase("tiles");
+                if (h.hasType())
+                    h.setType(Imf::SCANLINEIMAGE);
+                if (h.lineOrder() == Imf::RANDOM_Y)
+                    h.lineOrder() = Imf::INCREASING_Y;
+            }
+        }
+        headers.push_back(h);
+    }
+    MemOStream os(w);
+    {
+        Imf::MultiPartOutputFile of(os, headers.data(), np, false,
+                                    Imf::globalThreadCount());
+        for (int p = 0; p < np; ++p) {
+            if (needs_cxx(in.header(p).compression()))
+                transcode_pixels(in, of, p);
+            else
+                copy_chunks(in, of, p);
+        }
+    } // the offset tables are written when the file closes
+    give_bytes(os, out, out_size);
+    int *pc = static_cast<int *>(std::malloc(static_cast<size_t>(np) * sizeof(int)));
+    if (!pc) {
+        std::free(*out);
+        *out = nullptr;
+        *out_size = 0;
+        throw std::bad_alloc();
+    }
+    for (int p = 0; p < np; ++p)
+        pc[p] = comp[static_cast<size_t>(p)];
+    *part_comp = pc;
+    *num_parts = np;
+}
+
+} // namespace
+
+extern "C" int fp_dwa_decode(const void *buf, size_t size, int required,
+                             const char *where, long frame, void **out,
+                             size_t *out_size, int **part_comp, int *num_parts)
 {
     const char *w = where ? where : "<input>";
     *out = nullptr;
     *out_size = 0;
     *part_comp = nullptr;
     *num_parts = 0;
-    return guarded(w, frame, "decode DWA-compressed EXR", [&]() -> int {
-        MemIStream is(w, static_cast<const char *>(buf), size);
-        // A missing chunk must fail loudly, as on the C path.
-        Imf::MultiPartInputFile in(is, Imf::globalThreadCount(), false);
-        int np = in.parts();
-        std::vector<Imf::Header> headers;
-        std::vector<int> comp(static_cast<size_t>(np));
-        for (int p = 0; p < np; ++p) {
-            Imf::Header h = in.header(p);
-            if (part_is_deep(h))
-                return fp_error("%s: frame %ld: part %d holds deep data, which is "
-                                "not supported (expected flat scanline or tiled "
-                                "images)", w, frame, p);
-            comp[static_cast<size_t>(p)] = static_cast<int>(h.compression());
-            if (is_dwa(h.compression())) {
-                h.compression() = Imf::NO_COMPRESSION;
-                if (part_is_tiled(h)) {
-                    // The C path reads level 0 of a tiled part and writes
-                    // scanlines: level 0 as scanlines is all it needs.
-                    h.erase("tiles");
-                    if (h.hasType())
-                        h.setType(Imf::SCANLINEIMAGE);
-                    if (h.lineOrder() == Imf::RANDOM_Y)
-                        h.lineOrder() = Imf::INCREASING_Y;
-                }
-            }
-            headers.push_back(h);
-        }
-        MemOStream os(w);
-        {
-            Imf::MultiPartOutputFile of(os, headers.data(), np, false,
-                                        Imf::globalThreadCount());
-            for (int p = 0; p < np; ++p) {
-                if (is_dwa(in.header(p).compression()))
-                    transcode_pixels(in, of, p);
-                else
-                    copy_chunks(in, of, p);
-            }
-        } // the offset tables are written when the file closes
-        int *pc = static_cast<int *>(std::malloc(static_cast<size_t>(np) * sizeof(int)));
-        if (!pc)
-            throw std::bad_alloc();
-        for (int p = 0; p < np; ++p)
-            pc[p] = comp[static_cast<size_t>(p)];
+    if (required != FP_DWA_REQUIRED) {
+        // The C path is the fallback: declined quietly (*out stays NULL).
         try {
-            give_bytes(os, out, out_size);
+            decode_image(buf, size, w, out, out_size, part_comp, num_parts);
         } catch (...) {
-            std::free(pc);
-            throw;
         }
-        *part_comp = pc;
-        *num_parts = np;
+        return FP_OK;
+    }
+    return guarded(w, frame, "decode DWA-compressed EXR", [&]() -> int {
+        decode_image(buf, size, w, out, out_size, part_comp, num_parts);
         return FP_OK;
     });
 }

@@ -859,14 +859,16 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
         fp_error("%s: frame %ld: not an EXR file (bad magic number)", where, frame);
         goto done;
     }
-    /* The C library has no DWA codec: such an input is first rewritten
-     * with those parts uncompressed (exr_dwa.h). */
-    if (fp_dwa_probe(buf, size)) {
-        void *plain = NULL;
-        size_t plain_size = 0;
-        if (fp_dwa_decode(buf, size, where, frame, &plain, &plain_size,
-                          &f->dwa_comp, &f->dwa_num_parts) != FP_OK)
-            goto done;
+    /* The C library has no DWA codec (and misreads float channels of
+     * B44): such an input is first rewritten with those parts uncompressed
+     * by the C++ library (exr_dwa.h). */
+    int verdict = fp_dwa_probe(buf, size);
+    void *plain = NULL;
+    size_t plain_size = 0;
+    if (verdict && fp_dwa_decode(buf, size, verdict, where, frame, &plain, &plain_size,
+                                 &f->dwa_comp, &f->dwa_num_parts) != FP_OK)
+        goto done;
+    if (plain) {
         free(f->buf);
         f->buf = plain;
         f->size = plain_size;

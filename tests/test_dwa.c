@@ -378,7 +378,7 @@ static void rd_open(rd_t *r, const void *buf, size_t size, int *comps, int max_p
     size_t psize = size;
     int *pc = NULL, np = 0;
     if (fp_dwa_probe(buf, size)) {
-        assert_int_equal(fp_dwa_decode(buf, size, "check", 1, &plain, &psize, &pc, &np),
+        assert_int_equal(fp_dwa_decode(buf, size, FP_DWA_REQUIRED, "check", 1, &plain, &psize, &pc, &np),
                          FP_OK);
         assert_false(fp_dwa_probe(plain, psize));
     } else {
@@ -571,9 +571,22 @@ static void test_probe(void **state)
     for (size_t cut = 0; cut < 64; ++cut)
         assert_false(fp_dwa_probe(zip, cut));
     free(zip);
+    /* B44 with float channels: the C++ library is preferred; half only:
+     * the C library reads it right */
+    tp.compression = EXR_COMPRESSION_B44A;
+    uint8_t *b44 = make_exr(&tp, 1, -1.0f, &n);
+    assert_int_equal(fp_dwa_probe(b44, n), FP_DWA_PREFERRED);
+    free(b44);
+    tpart_t half = mkpart("half", EXR_COMPRESSION_B44, EXR_LINEORDER_INCREASING_Y);
+    add(&half, "R", EXR_PIXEL_HALF, 1, 1);
+    add(&half, "Y", EXR_PIXEL_HALF, 2, 2);
+    b44 = make_exr(&half, 1, -1.0f, &n);
+    assert_int_equal(fp_dwa_probe(b44, n), 0);
+    free(b44);
+    free_part(&half);
     tp.compression = EXR_COMPRESSION_DWAB;
     uint8_t *dwab = make_exr(&tp, 1, -1.0f, &n);
-    assert_true(fp_dwa_probe(dwab, n));
+    assert_int_equal(fp_dwa_probe(dwab, n), FP_DWA_REQUIRED);
     assert_false(fp_dwa_probe(NULL, 0));
     assert_false(fp_dwa_probe("garbage!garbage!", 16));
     free(dwab);
