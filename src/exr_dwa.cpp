@@ -67,28 +67,55 @@ class MemIStream : public Imf::IStream {
     uint64_t size_, pos_;
 };
 
-// The image being written, into a growable buffer; writes land anywhere
-// (the library seeks back to write the offset tables).
+// The image being written, into a growable malloc'd buffer that C takes
+// over whole (release); writes land anywhere (the library seeks back to
+// write the offset tables).
 class MemOStream : public Imf::OStream {
   public:
-    explicit MemOStream(const char *name) : Imf::OStream(name), pos_(0) {}
+    explicit MemOStream(const char *name) : Imf::OStream(name) {}
+    ~MemOStream() override { std::free(buf_); }
+    MemOStream(const MemOStream &) = delete;
+    MemOStream &operator=(const MemOStream &) = delete;
     void write(const char c[], int n) override
     {
         if (n < 0)
             throw Iex::ArgExc("negative write size");
         size_t end = static_cast<size_t>(pos_) + static_cast<size_t>(n);
-        if (end > bytes_.size())
-            bytes_.resize(end);
-        std::memcpy(bytes_.data() + pos_, c, static_cast<size_t>(n));
+        if (end > cap_) {
+            size_t cap = cap_ ? cap_ : 65536;
+            while (cap < end)
+                cap *= 2;
+            void *nb = std::realloc(buf_, cap);
+            if (!nb)
+                throw std::bad_alloc();
+            buf_ = static_cast<char *>(nb);
+            cap_ = cap;
+        }
+        if (pos_ > size_)
+            std::memset(buf_ + size_, 0, static_cast<size_t>(pos_) - size_);
+        std::memcpy(buf_ + pos_, c, static_cast<size_t>(n));
         pos_ = end;
+        if (end > size_)
+            size_ = end;
     }
     uint64_t tellp() override { return pos_; }
     void seekp(uint64_t pos) override { pos_ = pos; }
-    const std::vector<char> &bytes() const { return bytes_; }
+    // Hand the bytes to C (malloc'd; the stream is empty afterwards).
+    void release(void **out, size_t *out_size)
+    {
+        if (!buf_ && !(buf_ = static_cast<char *>(std::malloc(1))))
+            throw std::bad_alloc();
+        *out = buf_;
+        *out_size = size_;
+        buf_ = nullptr;
+        size_ = cap_ = 0;
+        pos_ = 0;
+    }
 
   private:
-    std::vector<char> bytes_;
-    uint64_t pos_;
+    char *buf_ = nullptr;
+    size_t size_ = 0, cap_ = 0;
+    uint64_t pos_ = 0;
 };
 
 // ---------------------------------------------------------------- helpers
@@ -198,19 +225,6 @@ void copy_chunks(Imf::MultiPartInputFile &in, Imf::MultiPartOutputFile &out,
         Imf::OutputPart op(out, p);
         op.copyPixels(ip);
     }
-}
-
-// Hand the written bytes to C (malloc'd).
-void give_bytes(const MemOStream &os, void **out, size_t *out_size)
-{
-    const std::vector<char> &b = os.bytes();
-    void *m = std::malloc(b.empty() ? 1 : b.size());
-    if (!m)
-        throw std::bad_alloc();
-    if (!b.empty())
-        std::memcpy(m, b.data(), b.size());
-    *out = m;
-    *out_size = b.size();
 }
 
 // OpenEXR's messages may span lines; ours are one line each.
@@ -356,7 +370,7 @@ void decode_image(const void *buf, size_t size, const char *w, void **out,
                 copy_chunks(in, of, p);
         }
     } // the offset tables are written when the file closes
-    give_bytes(os, out, out_size);
+    os.release(out, out_size);
     int *pc = static_cast<int *>(std::malloc(static_cast<size_t>(np) * sizeof(int)));
     if (!pc) {
         std::free(*out);
@@ -442,7 +456,7 @@ extern "C" int fp_dwa_encode(const void *buf, size_t size, const int *part_comp,
                     copy_chunks(in, of, p);
             }
         }
-        give_bytes(os, out, out_size);
+        os.release(out, out_size);
         return FP_OK;
     });
 }
