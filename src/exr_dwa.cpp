@@ -161,6 +161,17 @@ bool part_is_deep(const Imf::Header &h)
     return h.hasType() && Imf::isDeepData(h.type());
 }
 
+// The header less its tile description.  (Header::erase of OpenEXR 3.1
+// leaks the attribute it removes.)
+Imf::Header without_tiles(const Imf::Header &h)
+{
+    Imf::Header n; // its defaults are all overwritten: h has every one
+    for (Imf::Header::ConstIterator it = h.begin(); it != h.end(); ++it)
+        if (std::strcmp(it.name(), "tiles") != 0)
+            n.insert(it.name(), it.attribute());
+    return n;
+}
+
 // Decode a part's level 0 into planes (one per channel, sub-sampled
 // channels at their own resolution) and encode it into `out`'s part p.
 void transcode_pixels(Imf::MultiPartInputFile &in, Imf::MultiPartOutputFile &out,
@@ -350,7 +361,7 @@ void decode_image(const void *buf, size_t size, const char *w, void **out,
             if (part_is_tiled(h)) {
                 // The C path reads level 0 of a tiled part and writes
                 // scanlines: level 0 as scanlines is all it needs.
-                h.erase("tiles");
+                h = without_tiles(h);
                 if (h.hasType())
                     h.setType(Imf::SCANLINEIMAGE);
                 if (h.lineOrder() == Imf::RANDOM_Y)
