@@ -16,6 +16,7 @@
  * cannot seek and holds several files back to back, so we walk the bytes
  * (header, offset tables, last chunk) ourselves to know where one ends. */
 #include "exrio.h"
+#include "exr_dwa.h"
 #include "fp.h"
 
 #include <openexr.h>
@@ -91,6 +92,8 @@ struct fp_frame_t {
     float *rgba;
     float *depth;
     fp_frame_info_t info;
+    int *dwa_comp;       /* each part's compression in a DWA input (exr_dwa.h), else NULL */
+    int dwa_num_parts;
 };
 
 /* ------------------------------------------------------------ library glue */
@@ -279,6 +282,12 @@ int fp_exr_compression_from_name(const char *name)
         if (strcasecmp(name, comp_names[i]) == 0)
             return (int) i;
     return -1;
+}
+
+int fp_exr_compression_writable(int compression)
+{
+    /* the C library writes NONE..B44A; DWAA and DWAB go through exr_dwa.h */
+    return compression >= 0 && (size_t) compression < FP_ARRAY_LEN(comp_names);
 }
 
 const char *fp_exr_compression_name(int compression)
@@ -850,6 +859,22 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
         fp_error("%s: frame %ld: not an EXR file (bad magic number)", where, frame);
         goto done;
     }
+    /* The C library has no DWA codec (and misreads float channels of
+     * B44): such an input is first rewritten with those parts uncompressed
+     * by the C++ library (exr_dwa.h). */
+    int verdict = fp_dwa_probe(buf, size);
+    void *plain = NULL;
+    size_t plain_size = 0;
+    if (verdict && fp_dwa_decode(buf, size, verdict, where, frame, &plain, &plain_size,
+                                 &f->dwa_comp, &f->dwa_num_parts) != FP_OK)
+        goto done;
+    if (plain) {
+        free(f->buf);
+        f->buf = plain;
+        f->size = plain_size;
+        f->io.rd = plain;
+        f->io.rd_size = plain_size;
+    }
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = lib_error_handler;
@@ -880,9 +905,12 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
         fp_error("%s: frame %ld: out of memory", where, frame);
         goto done;
     }
-    for (int p = 0; p < f->num_parts; ++p)
+    for (int p = 0; p < f->num_parts; ++p) {
         if (setup_part(f, p, where, frame) != FP_OK)
             goto done;
+        if (f->dwa_comp && p < f->dwa_num_parts)
+            f->parts[p].compression = f->dwa_comp[p]; /* the input's, not NONE */
+    }
     if (select_channels(f, sel, where, frame) != FP_OK)
         goto done;
     for (int p = 0; p < f->num_parts; ++p)
@@ -1065,6 +1093,7 @@ void fp_frame_free(fp_frame_t *f)
     free(f->rgba);
     free(f->depth);
     free(f->buf);
+    free(f->dwa_comp);
     free(f);
 }
 
@@ -1262,6 +1291,8 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
     exr_context_t o = NULL;
     out_part_t *ops = NULL;
     int *out_idx = NULL;
+    int *out_comp = NULL;  /* each output part's compression */
+    int any_dwa = 0;
     int rc = FP_ERR;
     exr_result_t rv;
 
@@ -1290,7 +1321,8 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
     /* Plan every output part's channel list. */
     ops = calloc((size_t) f->num_parts, sizeof *ops);
     out_idx = calloc((size_t) f->num_parts, sizeof *out_idx);
-    if (!ops || !out_idx)
+    out_comp = calloc((size_t) f->num_parts, sizeof *out_comp);
+    if (!ops || !out_idx || !out_comp)
         goto oom;
     for (int p = 0; p < f->num_parts; ++p) {
         const fp_part_t *pt = &f->parts[p];
@@ -1376,6 +1408,12 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
         if (lo != EXR_LINEORDER_DECREASING_Y)
             lo = EXR_LINEORDER_INCREASING_Y; /* tiled RANDOM_Y has no scanline meaning */
         int comp = opts->compression >= 0 ? opts->compression : pt->compression;
+        /* DWA parts are encoded uncompressed here, then by exr_dwa.h */
+        out_comp[nout] = comp;
+        if (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB) {
+            any_dwa = 1;
+            comp = EXR_COMPRESSION_NONE;
+        }
         int idx = -1;
         rv = exr_add_part(o, name, EXR_STORAGE_SCANLINE, &idx);
         if (rv == EXR_ERR_SUCCESS)
@@ -1429,6 +1467,16 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
     o = NULL;
     if (rv != EXR_ERR_SUCCESS || io.wr_failed)
         goto lib_fail;
+    if (any_dwa) {
+        void *dwa = NULL;
+        size_t dwa_size = 0;
+        if (fp_dwa_encode(io.wr, io.wr_size, out_comp, nout, opts->dwa_level,
+                          where, frame, &dwa, &dwa_size) != FP_OK)
+            goto done;
+        free(io.wr);
+        io.wr = dwa;
+        io.wr_size = dwa_size;
+    }
     *out = io.wr;
     *out_size = io.wr_size;
     io.wr = NULL;
@@ -1449,6 +1497,7 @@ done:
             free(ops[p].ch);
     free(ops);
     free(out_idx);
+    free(out_comp);
     free(io.wr);
     return rc;
 }

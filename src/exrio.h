@@ -107,8 +107,11 @@ typedef struct fp_exr_write_opts_t {
      * primaries), -1 leaves it out (primaries unknown). */
     int set_chromaticities;
     float chromaticities[8];   /* red x,y, green x,y, blue x,y, white x,y */
+    /* DWAA/DWAB compression level (higher: smaller and lossier); < 0: the
+     * input's dwaCompressionLevel attribute, else OpenEXR's default 45. */
+    float dwa_level;
 } fp_exr_write_opts_t;
-#define FP_EXR_WRITE_OPTS_INITIALIZER { 0, -1, NULL, 0, 0, 0, 0, { 0 } }
+#define FP_EXR_WRITE_OPTS_INITIALIZER { 0, -1, NULL, 0, 0, 0, 0, { 0 }, -1.0f }
 
 /* Encode the frame to memory: every part, header attribute, data and
  * display window of the input kept; the color channels replaced by `rgba`
@@ -138,10 +141,13 @@ int fp_write_file_atomic(const char *path, const void *buf, size_t size);
 
 /* Parse a compression name ("none", "rle", "zips", "zip", "piz", "pxr24",
  * "b44", "b44a", "dwaa", "dwab") into exr_compression_t; -1 if unknown.
- * Note: OpenEXR 3.1's C library can neither decode nor encode dwaa/dwab;
- * with it such frames fail with a message (read or write), never crash. */
+ * OpenEXR 3.1's C library has no DWA codec: dwaa/dwab go through OpenEXR's
+ * C++ library (src/exr_dwa.h), in and out, files and streams alike. */
 int fp_exr_compression_from_name(const char *name);
 const char *fp_exr_compression_name(int compression);
+/* 1 when frames can be written with this compression (exr_compression_t),
+ * so that a run can refuse before it computes a frame; 0 if not. */
+int fp_exr_compression_writable(int compression);
 
 void fp_frame_free(fp_frame_t *f);
 

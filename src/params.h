@@ -20,6 +20,7 @@ typedef struct fp_io_params_t {
     char *depth_channel;
     int use_float;
     char *compression;    /* "input" or a name */
+    double dwa_level;     /* DWAA/DWAB level; used only when given (else the input's) */
     char *device;
     int cpu;              /* C reference instead of OpenCL */
     char *preset;

@@ -46,6 +46,9 @@ const fp_option_t fp_io_options[] = {
     { "compression", 0, FP_OPT_STRING, IO(compression), 0, 0, "input", 0, 0, NULL, "NAME",
       "output compression: input (the input's), none, rle, zips, zip, piz, pxr24, b44, b44a, "
       "dwaa, dwab", NULL, 0 },
+    { "dwa-level", 0, FP_OPT_REAL, IO(dwa_level), 0, 0, NULL, 0, 1e4, NULL, "LEVEL",
+      "DWAA/DWAB compression level, higher is smaller and lossier (default: the input's "
+      "dwaCompressionLevel attribute, else 45, as Nuke and OpenEXR)", NULL, 0 },
     { "device", 'd', FP_OPT_STRING, IO(device), 0, 0, NULL, 0, 0, NULL, "N|NAME",
       "OpenCL device: index from --list-devices or part of its name (default: "
       "$FOGPIPE_DEVICE, else the first GPU, else the first device)", NULL, 0 },
@@ -474,7 +477,12 @@ static int setup(run_t *r)
             return fp_usage_error("--compression: unknown compression '%s' (expected input, none, "
                                   "rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab)",
                                   p->io.compression);
+        /* refused here, before any frame is computed, not at the first write */
+        if (!fp_exr_compression_writable(w.compression))
+            return fp_usage_error("--compression: %s cannot be written by this build",
+                                  p->io.compression);
     }
+    w.dwa_level = fp_options_given(p, "dwa-level") ? (float) p->io.dwa_level : -1.0f;
     r->wopts = w;
     int rc = fp_integrate_commit(p, &r->fog);
     if (rc || (rc = fp_scatter_commit(p, &r->light)))

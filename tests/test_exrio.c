@@ -624,33 +624,6 @@ static int is_lossy(int comp)
            comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB;
 }
 
-static void check_unsupported_output(tpart_t *tp, int comp, const char *out)
-{
-    char in[4200];
-    path_in(in, sizeof in, "unsupported_src.exr");
-    tp->compression = EXR_COMPRESSION_ZIP;
-    write_exr(in, tp, 1);
-    fp_frame_t *f = NULL;
-    assert_int_equal(fp_exr_read_file(in, 40, NULL, &f), FP_OK);
-    fp_exr_write_opts_t o = FP_EXR_WRITE_OPTS_INITIALIZER;
-    o.compression = comp;
-    void *buf = NULL;
-    size_t size = 0;
-    cap_begin();
-    int rc = fp_exr_encode(f, NULL, &o, "<stdout>", 40, &buf, &size);
-    int rc2 = fp_exr_write_file(f, NULL, &o, out, 40);
-    const char *msg = cap_end();
-    assert_int_equal(rc, FP_ERR);
-    assert_int_equal(rc2, FP_ERR);
-    assert_null(buf);
-    assert_contains(msg, "<stdout>: frame 40: cannot encode");
-    assert_contains(msg, "choose another compression");
-    struct stat st;
-    assert_int_not_equal(stat(out, &st), 0);
-    assert_no_temporaries();
-    fp_frame_free(f);
-}
-
 /* Every compression: colour (half RGBA) read and written back, bit-exact
  * for lossless codecs; b44/b44a/dwaa/dwab within 2% + 0.01 absolute (the
  * content is smooth, in [0.05, 0.95]); Z, id and N.X passed through with
@@ -672,9 +645,9 @@ static void test_roundtrip_compressions(void **state)
                               box(0, 0, W0 + 5, H0 + 3), 1);
         exr_result_t wrv = try_write_exr(in, &tp, 1);
         if (wrv == EXR_ERR_FEATURE_NOT_IMPLEMENTED) {
-            /* OpenEXR 3.1's C library has no DWA codec: asking for it on
-             * output must fail cleanly, leaving no file behind. */
-            check_unsupported_output(&tp, comp, out);
+            /* OpenEXR 3.1's C library has no DWA codec to make the input
+             * with: DWAA/DWAB in and out are tested in tests/test_dwa.c */
+            assert_true(comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB);
             continue;
         }
         assert_int_equal(wrv, EXR_ERR_SUCCESS);
