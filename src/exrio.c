@@ -42,6 +42,10 @@
 #define FP_EXR_MAX_FILE       ((uint64_t) 1 << 40) /* bytes in one frame */
 
 #define FP_EXR_MAGIC 20000630
+/* Longest attribute or channel name without the long-names flag; with it,
+ * 255 (OpenEXR's EXR_SHORTNAME_MAXLEN and EXR_LONGNAME_MAXLEN). */
+#define FP_EXR_SHORT_NAME 31
+#define FP_EXR_LONG_NAME 255
 #define FP_EXR_MSG_LEN 512
 
 /* What a channel is to the encoder: passed through, or colour R..A. */
@@ -1170,6 +1174,30 @@ static void put_chan(out_part_t *op, const out_chan_t *c)
     op->ch[op->num++] = *c;
 }
 
+/* Whether any attribute name, attribute type name or channel name of the
+ * output's `nparts` parts is longer than OpenEXR's short limit (31). */
+static int needs_long_names(exr_context_t o, int nparts)
+{
+    for (int p = 0; p < nparts; ++p) {
+        int32_t na = 0;
+        if (exr_get_attribute_count(o, p, &na) != EXR_ERR_SUCCESS)
+            return 1;
+        for (int32_t i = 0; i < na; ++i) {
+            const exr_attribute_t *a = NULL;
+            if (exr_get_attribute_by_index(o, p, EXR_ATTR_LIST_FILE_ORDER, i, &a) !=
+                    EXR_ERR_SUCCESS || !a)
+                return 1;
+            if (a->name_length > FP_EXR_SHORT_NAME || a->type_name_length > FP_EXR_SHORT_NAME)
+                return 1;
+            if (a->type == EXR_ATTR_CHLIST)
+                for (int c = 0; c < a->chlist->num_channels; ++c)
+                    if (a->chlist->entries[c].name.length > FP_EXR_SHORT_NAME)
+                        return 1;
+        }
+    }
+    return 0;
+}
+
 static int encode_part(exr_context_t o, int idx, const out_part_t *op,
                        const exr_attr_box2i_t *dw, fp_exr_io_t *io,
                        const char *where, long frame)
@@ -1357,6 +1385,14 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
         o = NULL;
         goto lib_fail;
     }
+    /* Names of up to 255 characters (Cycles writes attributes such as
+     * cycles.ViewLayer.synchronization_time, 37): allowed while the header
+     * is built, and turned off again before it is written when every name
+     * fits in 31, so that the long-names flag is set only when needed, as
+     * OpenEXR's C++ library does. */
+    rv = exr_set_longname_support(o, 1);
+    if (rv != EXR_ERR_SUCCESS)
+        goto lib_fail;
     int nout = 0;
     for (int p = 0; p < f->num_parts; ++p) {
         const fp_part_t *pt = &f->parts[p];
@@ -1414,7 +1450,10 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
         fp_error("%s: frame %ld: nothing to write (no channels left)", where, frame);
         goto done;
     }
-    rv = exr_write_header(o);
+    if (!needs_long_names(o, nout))
+        rv = exr_set_longname_support(o, 0);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_write_header(o);
     if (rv != EXR_ERR_SUCCESS)
         goto lib_fail;
     for (int p = 0; p < f->num_parts; ++p) {
@@ -1543,7 +1582,9 @@ static uint64_t rd_u64(const uint8_t *p)
     return (uint64_t) rd_u32(p) | (uint64_t) rd_u32(p + 4) << 32;
 }
 
-/* Read a NUL-terminated name at *pos (at most 255 characters). */
+/* Read a NUL-terminated name at *pos: at most FP_EXR_LONG_NAME characters,
+ * whether or not the version field has the long-names flag (the library
+ * holds the file to its flag when it parses the frame). */
 static int sr_name(sreader_t *r, size_t *pos, const char **name, size_t *len)
 {
     size_t start = *pos;
@@ -1552,9 +1593,9 @@ static int sr_name(sreader_t *r, size_t *pos, const char **name, size_t *len)
             return FP_ERR;
         if (r->buf[*pos] == 0)
             break;
-        if (*pos - start >= 255)
+        if (*pos - start >= FP_EXR_LONG_NAME)
             return fp_error("%s: frame %ld: corrupt EXR header (name longer than "
-                            "255 characters)", r->where, r->index);
+                            "%d characters)", r->where, r->index, FP_EXR_LONG_NAME);
         (*pos)++;
     }
     (*pos)++;
@@ -1662,7 +1703,7 @@ static int sr_header(sreader_t *r, size_t *pos, spart_t *sp, int *empty)
     for (;;) {
         const char *nm, *ty;
         size_t nl, tl;
-        char name[256], type[256];
+        char name[FP_EXR_LONG_NAME + 1], type[FP_EXR_LONG_NAME + 1];
         r->section = "header";
         if (sr_name(r, pos, &nm, &nl) != FP_OK)
             return FP_ERR;

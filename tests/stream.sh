@@ -23,6 +23,24 @@ check "stream frames numbered by --frames" sh -c 'cat "$1" | "$FOGPIPE" --frames
   test -f "$2/num.0101.exr" -a -f "$2/num.0103.exr"' sh "$T/in3.stream" "$T"
 check "sequence in, stream out" sh -c '"$FOGPIPE" -i "$1" --frames 1-3 | cmp - "$2"' sh "$S/scene.####.exr" "$T/ref3.stream"
 
+# Names of 32-255 characters, as Cycles writes them through OpenImageIO:
+# kept byte for byte through a file and through a stream.
+L=$(printf 'ViewLayer%0221d' 0)
+"$OIIOTOOL" "$S/scene.0001.exr" --attrib cycles.ViewLayer.synchronization_time "00:00.02" \
+  --attrib "cycles.$L.render_time" "00:01.50" \
+  --chnames "$L.Combined.R,$L.Combined.G,$L.Combined.B,$L.Combined.A,$L.Depth.Z" -o "$T/long.exr"
+long_names() {
+  "$OIIOTOOL" --info -v "$1" > "$1.txt" &&
+    grep -q '^ *cycles\.ViewLayer\.synchronization_time: "00:00.02"$' "$1.txt" &&
+    grep -q "^ *cycles\.$L\.render_time: \"00:01.50\"\$" "$1.txt" &&
+    sed 's/ ([a-z]*)//g' "$1.txt" | grep -q "channel list: $L\.Combined\.R, $L\.Combined\.G, $L\.Combined\.B, $L\.Combined\.A, $L\.Depth\.Z"
+}
+check "long names: the input has them" long_names "$T/long.exr"
+check "long names: file in, file out" "$FOGPIPE" -i "$T/long.exr" -o "$T/long.out.exr"
+check "long names: kept in the file" long_names "$T/long.out.exr"
+check "long names: 2-frame stream in, stream out" sh -c 'cat "$1" "$1" | "$FOGPIPE" > "$2"' sh "$T/long.exr" "$T/long.stream"
+check "long names: each stream frame is the file-mode frame" sh -c 'cat "$1" "$1" | cmp - "$2"' sh "$T/long.out.exr" "$T/long.stream"
+
 # A stream whose second frame is cut short, at several places.
 size2=$(wc -c < "$S/scene.0002.exr")
 for cut in 10 300 2000 $((size2 - 1)); do

@@ -280,6 +280,9 @@ static void set_ptrs(exr_coding_channel_info_t *chans, int n, const tpart_t *tp,
     }
 }
 
+/* Names up to 255 characters in what try_write_exr writes next. */
+static int tw_long_names;
+
 /* Write parts with the C API; returns the library's result (the file is
  * removed on failure), so a test can probe what this library supports. */
 static exr_result_t try_write_exr(const char *path, const tpart_t *parts, int np)
@@ -294,6 +297,8 @@ static exr_result_t try_write_exr(const char *path, const tpart_t *parts, int np
     swc.y = 0.0f;
     init.error_handler_fn = quiet_handler;
     TRY(exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init));
+    if (tw_long_names)
+        TRY(exr_set_longname_support(ctx, 1));
     for (int p = 0; p < np; ++p) {
         const tpart_t *tp = &parts[p];
         int idx;
@@ -2209,6 +2214,166 @@ static void test_threads(void **state)
     std_img_free(&im);
 }
 
+/* ------------------------------------------------------------ long names */
+
+/* Names of 32 to 255 characters as Cycles writes them (through
+ * OpenImageIO): cycles.<ViewLayer>.<stat> attributes, and the channels of a
+ * view layer with a long name. */
+#define LONG_LAYER_LEN 230
+static char long_layer[LONG_LAYER_LEN + 1];
+static char long_chan[5][LONG_LAYER_LEN + 16];
+static char long_attr255[256];
+
+static void long_names_init(void)
+{
+    static const char *const suffix[5] = { ".Combined.R", ".Combined.G",
+                                           ".Combined.B", ".Combined.A",
+                                           ".Depth.Z" };
+    for (int i = 0; i < LONG_LAYER_LEN; ++i)
+        long_layer[i] = (char) ('a' + i % 26);
+    long_layer[LONG_LAYER_LEN] = '\0';
+    for (int k = 0; k < 5; ++k)
+        snprintf(long_chan[k], sizeof long_chan[k], "%s%s", long_layer, suffix[k]);
+    memcpy(long_attr255, "cycles.", 7);
+    for (int i = 7; i < 255; ++i)
+        long_attr255[i] = (char) ('A' + i % 26);
+    long_attr255[255] = '\0';
+}
+
+static void add_long_attrs(exr_context_t c, int p)
+{
+    assert_int_equal(exr_attr_set_string(c, p, "cycles.ViewLayer.synchronization_time",
+                                         "00:00.02"), 0);
+    assert_int_equal(exr_attr_set_string(c, p, "cycles.ViewLayer.total_time.x32",
+                                         "32 characters"), 0);
+    assert_int_equal(exr_attr_set_int(c, p, "cycles.ViewLayer.samples", 128), 0);
+    assert_int_equal(exr_attr_set_string(c, p, long_attr255, "255 characters"), 0);
+}
+
+/* The long names, byte for byte, in a file's header. */
+static void assert_long_names(const char *path, const char *what)
+{
+    exr_context_t c = open_hdr(path);
+    const char *s;
+    int32_t len;
+    if (exr_attr_get_string(c, 0, "cycles.ViewLayer.synchronization_time", &len, &s))
+        fail_msg("%s: no cycles.ViewLayer.synchronization_time", what);
+    assert_string_equal(s, "00:00.02");
+    assert_int_equal(exr_attr_get_string(c, 0, "cycles.ViewLayer.total_time.x32", &len, &s), 0);
+    assert_int_equal(strlen("cycles.ViewLayer.total_time.x32"), 31);
+    assert_string_equal(s, "32 characters");
+    int32_t iv;
+    assert_int_equal(exr_attr_get_int(c, 0, "cycles.ViewLayer.samples", &iv), 0);
+    assert_int_equal(iv, 128);
+    assert_int_equal(exr_attr_get_string(c, 0, long_attr255, &len, &s), 0);
+    assert_string_equal(s, "255 characters");
+    const exr_attr_chlist_t *cl;
+    assert_int_equal(exr_get_channels(c, 0, &cl), 0);
+    int found = 0;
+    for (int i = 0; i < cl->num_channels; ++i)
+        for (int k = 0; k < 5; ++k)
+            if (strcmp(cl->entries[i].name.str, long_chan[k]) == 0 &&
+                cl->entries[i].name.length == (int32_t) strlen(long_chan[k]))
+                found++;
+    if (found != 5)
+        fail_msg("%s: %d of the 5 long channel names", what, found);
+    exr_finish(&c);
+    /* the long-names flag (bit 10 of the version field) is set */
+    size_t n;
+    uint8_t *b = slurp_file(path, &n);
+    assert_true(n > 8);
+    assert_true(b[5] & 0x04);
+    free(b);
+}
+
+static void test_long_names(void **state)
+{
+    (void) state;
+    long_names_init();
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, W0, H0);
+    char in[4200], out[4200], sout[4200];
+    path_in(in, sizeof in, "long.exr");
+    path_in(out, sizeof out, "long.out.exr");
+    path_in(sout, sizeof sout, "long.stream.out.exr");
+    tpart_t tp;
+    memset(&tp, 0, sizeof tp);
+    tp.dw = tp.disp = box(0, 0, W0 - 1, H0 - 1);
+    tp.compression = EXR_COMPRESSION_ZIP;
+    tp.lineorder = EXR_LINEORDER_INCREASING_Y;
+    tp.ch[0] = (tchan_t) { long_chan[0], EXR_PIXEL_HALF, 1, 1, im.r };
+    tp.ch[1] = (tchan_t) { long_chan[1], EXR_PIXEL_HALF, 1, 1, im.g };
+    tp.ch[2] = (tchan_t) { long_chan[2], EXR_PIXEL_HALF, 1, 1, im.b };
+    tp.ch[3] = (tchan_t) { long_chan[3], EXR_PIXEL_HALF, 1, 1, im.a };
+    tp.ch[4] = (tchan_t) { long_chan[4], EXR_PIXEL_FLOAT, 1, 1, im.z };
+    tp.nch = 5;
+    tp.attrs = add_long_attrs;
+    tw_long_names = 1;
+    write_exr(in, &tp, 1);
+    tw_long_names = 0;
+    assert_long_names(in, "input");
+
+    /* file in, file out: colour and depth found in the long-named layer */
+    fp_frame_t *f = NULL;
+    assert_int_equal(fp_exr_read_file(in, 1, NULL, &f), FP_OK);
+    assert_string_equal(fp_frame_info(f)->color_names[0], long_chan[0]);
+    assert_string_equal(fp_frame_info(f)->depth_name, long_chan[4]);
+    assert_int_equal(fp_exr_write_file(f, NULL, NULL, out, 1), FP_OK);
+    fp_frame_free(f);
+    assert_long_names(out, "file output");
+    assert_same_chan(in, 0, out, 0, long_chan[4]);
+
+    /* a stream of two such frames: framed, decoded and written the same */
+    size_t n;
+    uint8_t *one = slurp_file(in, &n);
+    uint8_t *two = malloc(2 * n);
+    assert_non_null(two);
+    memcpy(two, one, n);
+    memcpy(two + n, one, n);
+    FILE *sin = fmemopen(two, 2 * n, "rb");
+    assert_non_null(sin);
+    for (int i = 0; i < 2; ++i) {
+        void *buf;
+        size_t size;
+        assert_int_equal(fp_exr_stream_next(sin, "<stdin>", i + 1, &buf, &size), FP_OK);
+        assert_int_equal(size, n);
+        assert_memory_equal(buf, one, n);
+        assert_int_equal(fp_exr_read_memory(buf, size, "<stdin>", i + 1, NULL, &f), FP_OK);
+        void *enc;
+        size_t enc_size;
+        assert_int_equal(fp_exr_encode(f, NULL, NULL, "<stdout>", i + 1, &enc, &enc_size),
+                         FP_OK);
+        fp_frame_free(f);
+        spit_file(sout, enc, enc_size);
+        free(enc);
+        assert_long_names(sout, "stream output");
+        size_t fn;
+        uint8_t *fb = slurp_file(out, &fn);
+        uint8_t *sb = slurp_file(sout, &n);
+        assert_int_equal(fn, n);
+        assert_memory_equal(fb, sb, n); /* the same bytes as file mode */
+        free(fb);
+        free(sb);
+        n = fn;
+    }
+    fclose(sin);
+    free(two);
+    free(one);
+
+    /* short names only: no long-names flag in the output */
+    path_in(in, sizeof in, "short.exr");
+    tpart_t sp = std_part(&im, EXR_COMPRESSION_ZIP, box(0, 0, W0 - 1, H0 - 1),
+                          box(0, 0, W0 - 1, H0 - 1), 1);
+    write_exr(in, &sp, 1);
+    assert_int_equal(fp_exr_read_file(in, 1, NULL, &f), FP_OK);
+    assert_int_equal(fp_exr_write_file(f, NULL, NULL, out, 1), FP_OK);
+    fp_frame_free(f);
+    uint8_t *b = slurp_file(out, &n);
+    assert_false(b[5] & 0x04);
+    free(b);
+    std_img_free(&im);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -2233,6 +2398,7 @@ int main(void)
         cmocka_unit_test(test_deep_input),
         cmocka_unit_test(test_write_errors),
         cmocka_unit_test(test_threads),
+        cmocka_unit_test(test_long_names),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }
