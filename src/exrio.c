@@ -864,8 +864,12 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
     init.max_image_height = FP_EXR_MAX_DIM;
     init.max_tile_width = FP_EXR_MAX_DIM;
     init.max_tile_height = FP_EXR_MAX_DIM;
-    /* A missing chunk must fail loudly, not be searched for. */
-    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
+    /* A missing chunk must fail loudly, not be searched for.  A strict
+     * header: without it the library drops an attribute it cannot parse
+     * (lineOrder 99, compression 99) and puts its default in place, so a
+     * bad header would pass as another file. */
+    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION |
+                 EXR_CONTEXT_FLAG_STRICT_HEADER;
     rv = exr_start_read(&f->ctx, where, &init);
     if (rv != EXR_ERR_SUCCESS) {
         f->ctx = NULL;
@@ -1220,9 +1224,7 @@ static int encode_part(exr_context_t o, int idx, const out_part_t *op,
     }
     int64_t h = (int64_t) dw->max.y - dw->min.y + 1;
     int64_t nchunks = (h + lpc - 1) / lpc;
-    /* The library takes chunks in increasing index order whatever the
-     * part's line order (it refuses any other sequence unless RANDOM_Y);
-     * readers find them through the offset table either way. */
+    /* Chunks in increasing order, as the part's line order says. */
     for (int64_t k = 0; k < nchunks; ++k) {
         y = dw->min.y + k * lpc;
         rv = exr_write_scanline_chunk_info(o, idx, (int) y, &ci);
@@ -1408,9 +1410,13 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
         exr_get_screen_window_center(f->ctx, p, &swc);
         exr_get_screen_window_width(f->ctx, p, &sww);
         io.msg[0] = '\0'; /* absent optional values are not errors */
-        int lo = pt->lineorder;
-        if (lo != EXR_LINEORDER_DECREASING_Y)
-            lo = EXR_LINEORDER_INCREASING_Y; /* tiled RANDOM_Y has no scanline meaning */
+        /* Line order is normalized to increasing: it only says in which
+         * order the chunks lie in the file, never what the image is, and
+         * OpenEXR 3.1's C writer can only lay them out increasing (it
+         * refuses any other sequence unless RANDOM_Y).  Declaring
+         * decreasing over increasing chunks makes a file that OpenEXR's
+         * C++ reader (OpenImageIO) reads past its end. */
+        const int lo = EXR_LINEORDER_INCREASING_Y;
         int comp = opts->compression >= 0 ? opts->compression : pt->compression;
         int idx = -1;
         rv = exr_add_part(o, name, EXR_STORAGE_SCANLINE, &idx);
@@ -1732,6 +1738,10 @@ static int sr_header(sreader_t *r, size_t *pos, spart_t *sp, int *empty)
                 sp->dw[i] = rd_i32(v + 4 * i);
             sp->has_dw = 1;
         } else if (strcmp(name, "compression") == 0 && size == 1) {
+            if (v[0] >= EXR_COMPRESSION_LAST_TYPE)
+                return fp_error("%s: frame %ld: corrupt EXR header (compression "
+                                "%d; expected 0-%d)", r->where, r->index, v[0],
+                                EXR_COMPRESSION_LAST_TYPE - 1);
             sp->compression = v[0];
         } else if (strcmp(name, "tiles") == 0 && strcmp(type, "tiledesc") == 0 &&
                    size == 9) {

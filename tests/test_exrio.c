@@ -902,8 +902,9 @@ static void test_tiled_input(void **state)
     std_img_free(&im);
 }
 
-/* Negative data window origin, data window != display window, decreasing
- * line order: all kept. */
+/* Negative data window origin, data window != display window: kept;
+ * decreasing line order: normalized to increasing (see
+ * test_lineorder_decreasing). */
 static void test_negative_window(void **state)
 {
     (void) state;
@@ -937,7 +938,7 @@ static void test_negative_window(void **state)
     assert_int_equal(dw.min.y, -7);
     assert_int_equal(dw.max.x, -10 + W0 - 1);
     assert_int_equal(disp.max.x, 99);
-    assert_int_equal(lo, EXR_LINEORDER_DECREASING_Y);
+    assert_int_equal(lo, EXR_LINEORDER_INCREASING_Y);
     exr_finish(&c);
     assert_same_chan(in, 0, out, 0, "R");
     assert_same_chan(in, 0, out, 0, "N.X");
@@ -2374,6 +2375,143 @@ static void test_long_names(void **state)
     std_img_free(&im);
 }
 
+/* ------------------------------------------------------------ line order, enums */
+
+/* Decreasing line order in: the output declares increasing (the order its
+ * chunks are in) and holds the same pixels. */
+static void test_lineorder_decreasing(void **state)
+{
+    (void) state;
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, W0, H0);
+    char in[4200], out[4200];
+    path_in(in, sizeof in, "dec.exr");
+    path_in(out, sizeof out, "dec.out.exr");
+    static const int comps[] = { EXR_COMPRESSION_NONE, EXR_COMPRESSION_ZIP,
+                                 EXR_COMPRESSION_PIZ };
+    for (size_t k = 0; k < sizeof comps / sizeof comps[0]; ++k) {
+        tpart_t tp = std_part(&im, comps[k], box(0, 0, W0 - 1, H0 - 1),
+                              box(0, 0, W0 - 1, H0 - 1), 1);
+        tp.lineorder = EXR_LINEORDER_DECREASING_Y;
+        write_exr(in, &tp, 1);
+        fp_frame_t *f = NULL;
+        assert_int_equal(fp_exr_read_file(in, 3, NULL, &f), FP_OK);
+        assert_int_equal(fp_exr_write_file(f, NULL, NULL, out, 3), FP_OK);
+        fp_frame_free(f);
+        exr_context_t c = open_hdr(out);
+        exr_lineorder_t lo;
+        assert_int_equal(exr_get_lineorder(c, 0, &lo), 0);
+        assert_int_equal(lo, EXR_LINEORDER_INCREASING_Y);
+        /* the chunks lie in the file in the declared order */
+        int32_t lpc;
+        assert_int_equal(exr_get_scanlines_per_chunk(c, 0, &lpc), 0);
+        uint64_t prev = 0;
+        for (int y = 0; y < H0; y += lpc) {
+            exr_chunk_info_t ci;
+            assert_int_equal(exr_read_scanline_chunk_info(c, 0, y, &ci), 0);
+            assert_true(ci.data_offset > prev);
+            prev = ci.data_offset;
+        }
+        exr_finish(&c);
+        assert_same_chan(in, 0, out, 0, "R");
+        assert_same_chan(in, 0, out, 0, "Z");
+        assert_same_chan(in, 0, out, 0, "id");
+    }
+    std_img_free(&im);
+}
+
+static void add_envmap(exr_context_t c, int p)
+{
+    assert_int_equal(exr_attr_set_envmap(c, p, "envmap", EXR_ENVMAP_LATLONG), 0);
+}
+
+/* The byte after "<name>\0<type>\0<size>" in a header. */
+static size_t attr_value_at(const uint8_t *b, size_t n, const char *name,
+                            const char *type)
+{
+    size_t nl = strlen(name) + 1, tl = strlen(type) + 1;
+    for (size_t i = 8; i + nl + tl + 4 < n; ++i)
+        if (memcmp(b + i, name, nl) == 0 && memcmp(b + i + nl, type, tl) == 0)
+            return i + nl + tl + 4;
+    fail_msg("attribute %s not found", name);
+    return 0;
+}
+
+/* Invalid enum values are refused, from a file and from a stream, with
+ * one message naming the file, the frame and the attribute. */
+static void test_bad_enums(void **state)
+{
+    (void) state;
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, W0, H0);
+    char in[4200], bad[4200];
+    path_in(in, sizeof in, "enum.exr");
+    path_in(bad, sizeof bad, "enum.bad.exr");
+    tpart_t tp = std_part(&im, EXR_COMPRESSION_NONE, box(0, 0, W0 - 1, H0 - 1),
+                          box(0, 0, W0 - 1, H0 - 1), 1);
+    tp.attrs = add_envmap;
+    write_exr(in, &tp, 1);
+    size_t n;
+    uint8_t *good = slurp_file(in, &n);
+    fp_frame_t *f = NULL;
+    assert_int_equal(fp_exr_read_memory(good, n, in, 1, NULL, &f), FP_OK);
+    fp_frame_free(f);
+    good = slurp_file(in, &n);
+
+    struct {
+        const char *name, *type;
+        size_t skip;     /* bytes into the value */
+        uint8_t value;
+        const char *says;
+    } cases[] = {
+        { "lineOrder", "lineOrder", 0, 99, "lineOrder" },
+        { "lineOrder", "lineOrder", 0, 3, "lineOrder" },
+        { "compression", "compression", 0, 99, "compression" },
+        { "compression", "compression", 0, EXR_COMPRESSION_LAST_TYPE, "compression" },
+        { "envmap", "envmap", 0, 99, "envmap" },
+        { "channels", "chlist", 2 + 4, 9, "perceptual linear" }, /* channel A's pLinear */
+        { "channels", "chlist", 2, 7, "type" },           /* channel A's pixel type */
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+        uint8_t *b = malloc(n);
+        assert_non_null(b);
+        memcpy(b, good, n);
+        b[attr_value_at(b, n, cases[k].name, cases[k].type) + cases[k].skip] = cases[k].value;
+        spit_file(bad, b, n);
+        /* file */
+        f = (fp_frame_t *) 1;
+        cap_begin();
+        int rc = fp_exr_read_file(bad, 7, NULL, &f);
+        const char *msg = cap_end();
+        print_message("# %s = %d: %s", cases[k].name, cases[k].value, msg);
+        if (rc != FP_ERR)
+            fail_msg("%s = %d accepted", cases[k].name, cases[k].value);
+        assert_null(f);
+        assert_contains(msg, "enum.bad.exr: frame 7:");
+        assert_contains(msg, cases[k].says);
+        assert_non_null(strchr(msg, '\n'));
+        assert_null(strchr(msg, '\n') + 1 < msg + strlen(msg) ? strchr(strchr(msg, '\n') + 1, '\n') : NULL);
+        /* stream: the framing or the decoder refuses it */
+        FILE *sin = fmemopen(b, n, "rb");
+        assert_non_null(sin);
+        void *buf = NULL;
+        size_t size;
+        cap_begin();
+        rc = fp_exr_stream_next(sin, "<stdin>", 4, &buf, &size);
+        if (rc == FP_OK)
+            rc = fp_exr_read_memory(buf, size, "<stdin>", 4, NULL, &f);
+        msg = cap_end();
+        fclose(sin);
+        if (rc != FP_ERR)
+            fail_msg("stream: %s = %d accepted", cases[k].name, cases[k].value);
+        assert_contains(msg, "<stdin>: frame 4:");
+        assert_contains(msg, cases[k].says);
+        free(b);
+    }
+    free(good);
+    std_img_free(&im);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -2399,6 +2537,8 @@ int main(void)
         cmocka_unit_test(test_write_errors),
         cmocka_unit_test(test_threads),
         cmocka_unit_test(test_long_names),
+        cmocka_unit_test(test_lineorder_decreasing),
+        cmocka_unit_test(test_bad_enums),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }
