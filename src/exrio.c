@@ -1765,6 +1765,55 @@ static int sr_header(sreader_t *r, size_t *pos, spart_t *sp, int *empty)
     }
 }
 
+/* A frame cut short in the middle of a stream borrows the start of the
+ * next frame to fill its last chunk, and uncompressed data cannot tell:
+ * the frame would decode, and the next one would be blamed for a bad
+ * magic number.  So the last chunk (from `last` to the end) is searched
+ * for the start of a frame (magic number, version 2): when it holds one
+ * and the stream then goes on with anything but the start of a frame, or
+ * when it ends with the first 1-4 bytes of one and the stream goes on
+ * with the rest, this frame is the one cut.  The stream is peeked (one
+ * byte, put back) only in those cases, so it is not otherwise read ahead. */
+static int cut_short(sreader_t *r, size_t last)
+{
+    static const uint8_t magic[5] = { 0x76, 0x2f, 0x31, 0x01, 0x02 };
+    const size_t m = sizeof magic;
+    size_t borrowed = 0;   /* bytes of the next frame in ours, if cut */
+    int want = -1;         /* the next byte that confirms it; -1: any but magic[0] */
+
+    if (r->len < last + m)
+        return FP_OK;
+    const uint8_t *p = r->buf + last, *end = r->buf + r->len - m;
+    while (p <= end && (p = memchr(p, magic[0], (size_t) (end - p) + 1)) != NULL) {
+        if (memcmp(p, magic, m) == 0) {
+            borrowed = r->len - (size_t) (p - r->buf);
+            break;
+        }
+        p++;
+    }
+    for (size_t k = m - 1; k >= 1 && !borrowed; --k)
+        if (memcmp(r->buf + r->len - k, magic, k) == 0) {
+            borrowed = k;
+            want = magic[k];
+        }
+    if (!borrowed)
+        return FP_OK;
+    int c = fgetc(r->in);
+    if (c == EOF) {
+        if (ferror(r->in))
+            return fp_error("%s: frame %ld: read error (%s)", r->where, r->index,
+                            strerror(errno));
+        return FP_OK;
+    }
+    if (ungetc(c, r->in) == EOF)
+        return fp_error("%s: frame %ld: read error", r->where, r->index);
+    if (want >= 0 ? c != want : c == magic[0])
+        return FP_OK;
+    return fp_error("%s: frame %ld: truncated EXR stream (the frame is cut short: "
+                    "the next frame starts %zu bytes before the end of its last "
+                    "chunk)", r->where, r->index, borrowed);
+}
+
 int fp_exr_stream_next(FILE *in, const char *where_file, long index,
                        void **buf, size_t *size)
 {
@@ -1925,6 +1974,8 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
         goto done;
     }
     if (sr_need(&r, at + lead + 4 + (uint64_t) dsize) != FP_OK)
+        goto done;
+    if (cut_short(&r, (size_t) last) != FP_OK)
         goto done;
 
     *buf = r.buf;

@@ -50,6 +50,18 @@ for cut in 10 300 2000 $((size2 - 1)); do
 done
 check "frame 1 of the truncated stream was written whole" cmp "$T/t.0001.exr" "$T/ref.0001.exr"
 check "nothing of frame 2" test ! -e "$T/t.0002.exr"
+# An uncompressed frame cut short in the middle of a stream borrows the
+# start of the next: the error names the frame cut, and nothing of it is
+# written.
+for f in 1 2; do "$OIIOTOOL" "$S/scene.000$f.exr" --compression none -o "$T/none.$f.exr"; done
+nsize=$(wc -c < "$T/none.2.exr")
+for cut in 1 4 5 100 5000; do
+  rm -f "$T"/c.*.exr
+  { cat "$T/none.1.exr"; head -c $((nsize - cut)) "$T/none.2.exr"; cat "$T/none.1.exr"; } > "$T/cut.stream"
+  fails "uncompressed frame 2 of 3 cut $cut bytes short" 1 "<stdin>: frame 2: truncated" "$T/c.0002.exr" \
+    sh -c '"$FOGPIPE" -o "$2/c.####.exr" < "$1"' sh "$T/cut.stream" "$T"
+done
+check "frame 1 before the cut frame was written" test -f "$T/c.0001.exr"
 { cat "$S/scene.0001.exr"; echo "garbage"; } > "$T/garbage.stream"
 fails "garbage after a frame" 1 "<stdin>.*frame 2.*(not an EXR|magic)" - sh -c '"$FOGPIPE" < "$1" > /dev/null' sh "$T/garbage.stream"
 fails "empty stdin" 1 "<stdin>.*empty" - sh -c '"$FOGPIPE" < /dev/null > /dev/null'

@@ -2512,6 +2512,89 @@ static void test_bad_enums(void **state)
     std_img_free(&im);
 }
 
+/* ------------------------------------------------------------ cut frames */
+
+static int stream_read_n(const uint8_t *data, size_t n, int frames, const char **msg)
+{
+    FILE *in = fmemopen((void *) data, n, "rb");
+    assert_non_null(in);
+    int rc = FP_OK;
+    cap_begin();
+    for (int i = 1; i <= frames && rc == FP_OK; ++i) {
+        void *buf = NULL;
+        size_t size;
+        rc = fp_exr_stream_next(in, "<stdin>", i, &buf, &size);
+        if (rc == FP_OK) {
+            fp_frame_t *f = NULL;
+            rc = fp_exr_read_memory(buf, size, "<stdin>", i, NULL, &f);
+            fp_frame_free(f);
+        }
+        if (rc != FP_OK)
+            rc = i;
+    }
+    *msg = cap_end();
+    fclose(in);
+    return rc;
+}
+
+/* An uncompressed frame cut short inside a stream: the error names it,
+ * not the frame after it, whose start it borrowed. */
+static void test_stream_cut(void **state)
+{
+    (void) state;
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, W0, H0);
+    char in[4200];
+    path_in(in, sizeof in, "cut.exr");
+    tpart_t tp = std_part(&im, EXR_COMPRESSION_NONE, box(0, 0, W0 - 1, H0 - 1),
+                          box(0, 0, W0 - 1, H0 - 1), 1);
+    write_exr(in, &tp, 1);
+    size_t n;
+    uint8_t *a = slurp_file(in, &n);
+    uint8_t *st = malloc(3 * n);
+    assert_non_null(st);
+    const size_t line = (size_t) W0 * (4 * 2 + 4 + 4 + 4); /* one chunk */
+    const size_t cuts[] = { 1, 2, 3, 4, 5, 6, 100, line - 8 - 1 };
+    for (size_t k = 0; k < sizeof cuts / sizeof cuts[0]; ++k) {
+        size_t len = 0;
+        memcpy(st, a, n);
+        len += n;
+        memcpy(st + len, a, n - cuts[k]);
+        len += n - cuts[k];
+        memcpy(st + len, a, n);
+        len += n;
+        const char *msg;
+        int bad = stream_read_n(st, len, 3, &msg);
+        if (bad != 2)
+            fail_msg("cut %zu: frame %d refused, expected 2: %s", cuts[k], bad, msg);
+        assert_contains(msg, "<stdin>: frame 2: truncated");
+    }
+    /* the last chunk holding a magic number and version by chance (a uint
+     * channel's last line): frames before a good frame, and at the end,
+     * are read */
+    uint32_t *id = im.id;
+    id[(size_t) (H0 - 1) * W0 + 0] = 0x01312f76u;
+    id[(size_t) (H0 - 1) * W0 + 1] = 2;
+    for (int round = 0; round < 2; ++round) {
+        if (round == 1) { /* ends with the first byte of one */
+            id[(size_t) (H0 - 1) * W0 + 0] = 0;
+            id[(size_t) (H0 - 1) * W0 + W0 - 1] = 0x76000000u;
+        }
+        write_exr(in, &tp, 1);
+        free(a);
+        a = slurp_file(in, &n);
+        assert_true(round == 0 || a[n - 1] == 0x76);
+        memcpy(st, a, n);
+        memcpy(st + n, a, n);
+        const char *msg;
+        assert_int_equal(stream_read_n(st, 2 * n, 2, &msg), FP_OK);
+        assert_string_equal(msg, "");
+    }
+    free(st);
+    free(a);
+    std_img_free(&im);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -2539,6 +2622,7 @@ int main(void)
         cmocka_unit_test(test_long_names),
         cmocka_unit_test(test_lineorder_decreasing),
         cmocka_unit_test(test_bad_enums),
+        cmocka_unit_test(test_stream_cut),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }
