@@ -22,6 +22,8 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <limits.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -42,6 +44,9 @@
 #define FP_EXR_MAX_FILE       ((uint64_t) 1 << 40) /* bytes in one frame */
 
 #define FP_EXR_MAGIC 20000630
+/* Chunk workers: at most this many, and none below this many pixels. */
+#define FP_EXR_MAX_THREADS    64
+#define FP_EXR_PAR_MIN_PIXELS ((int64_t) 1 << 16)
 /* Longest attribute or channel name without the long-names flag; with it,
  * 255 (OpenEXR's EXR_SHORTNAME_MAXLEN and EXR_LONGNAME_MAXLEN). */
 #define FP_EXR_SHORT_NAME 31
@@ -195,6 +200,58 @@ static int64_t mem_write(exr_const_context_t ctxt, void *userdata,
     if (end > io->wr_size)
         io->wr_size = end;
     return (int64_t) sz;
+}
+
+/* ------------------------------------------------------------ chunk workers */
+
+/* Threads that decode or encode the chunks of one part: 0 = one per
+ * online core (fp_exr_set_threads). */
+static atomic_int g_threads;
+
+void fp_exr_set_threads(int n)
+{
+    atomic_store(&g_threads, n < 0 ? 0 : n);
+}
+
+int fp_exr_threads(void)
+{
+    int n = atomic_load(&g_threads);
+    if (n > 0)
+        return n;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    return cores < 1 ? 1 : cores > FP_EXR_MAX_THREADS ? FP_EXR_MAX_THREADS : (int) cores;
+}
+
+/* How many workers a part of `pixels` pixels in `chunks` chunks gets: one
+ * for small images, where starting threads costs more than it saves. */
+static int fp_exr_workers(int64_t pixels, int64_t chunks)
+{
+    int n = fp_exr_threads();
+    if (pixels < FP_EXR_PAR_MIN_PIXELS || chunks < 2)
+        return 1;
+    return chunks < n ? (int) chunks : n;
+}
+
+/* Run fn on each of the n workers (an array of n records of `size`
+ * bytes): n - 1 new threads and the calling one.  A thread that cannot be
+ * started leaves its record to the caller, which runs it after its own:
+ * the work is claimed from a shared counter, so fewer threads only take
+ * longer. */
+static void fp_exr_run_workers(void *(*fn)(void *), void *workers, size_t size,
+                               int n)
+{
+    pthread_t th[FP_EXR_MAX_THREADS];
+    int started[FP_EXR_MAX_THREADS] = { 0 };
+    uint8_t *w = workers;
+    for (int i = 1; i < n; ++i)
+        started[i] = pthread_create(&th[i], NULL, fn, w + (size_t) i * size) == 0;
+    fn(w);
+    for (int i = 1; i < n; ++i) {
+        if (started[i])
+            pthread_join(th[i], NULL);
+        else
+            fn(w + (size_t) i * size);
+    }
 }
 
 /* ------------------------------------------------------------ small helpers */
@@ -744,62 +801,159 @@ static exr_result_t decode_chunk(fp_frame_t *f, int p, exr_decode_pipeline_t *de
     return exr_decoding_run(f->ctx, p, dec);
 }
 
+/* The chunks of one part, decoded by workers that each claim the next
+ * chunk and run their own pipeline (the C API decodes chunks
+ * independently; a read context is not changed by decoding). */
+typedef struct dec_job_t {
+    fp_frame_t *f;
+    int p;
+    const exr_chunk_info_t *ci;
+    const int *x0, *y0;          /* each chunk's first pixel */
+    int64_t n;
+    atomic_llong next;
+    atomic_int stop;
+} dec_job_t;
+
+typedef struct dec_worker_t {
+    dec_job_t *job;
+    int64_t fail;                /* first chunk it failed on, or -1 */
+    exr_result_t rv;
+    char msg[FP_EXR_MSG_LEN];
+} dec_worker_t;
+
+static void *dec_work(void *arg)
+{
+    dec_worker_t *w = arg;
+    dec_job_t *j = w->job;
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    int inited = 0;
+    char *saved = tl_msg;
+    tl_msg = w->msg;
+    for (;;) {
+        int64_t k = atomic_fetch_add(&j->next, 1);
+        if (k >= j->n || atomic_load(&j->stop))
+            break;
+        exr_result_t rv = decode_chunk(j->f, j->p, &dec, &inited, &j->ci[k],
+                                       j->x0[k], j->y0[k]);
+        if (rv != EXR_ERR_SUCCESS) {
+            w->fail = k;
+            w->rv = rv;
+            atomic_store(&j->stop, 1);
+            break;
+        }
+    }
+    exr_decoding_destroy(j->f->ctx, &dec);
+    tl_msg = saved;
+    return NULL;
+}
+
 static int decode_part(fp_frame_t *f, int p, const char *where, long frame)
 {
     char lt[512];
     fp_part_t *pt = &f->parts[p];
-    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
-    exr_chunk_info_t ci;
-    int inited = 0;
     int rc = FP_ERR;
     exr_result_t rv = EXR_ERR_SUCCESS;
     int at_x = pt->dw.min.x, at_y = pt->dw.min.y;
+    const char *why = NULL;      /* a worker's message, else the frame's */
+    exr_chunk_info_t *ci = NULL;
+    int *xy = NULL;
+    dec_worker_t *wk = NULL;
+    int64_t n = 0, nmax;
+    int64_t w = (int64_t) pt->dw.max.x - pt->dw.min.x + 1;
+    int64_t h = (int64_t) pt->dw.max.y - pt->dw.min.y + 1;
+    int32_t lpc = 0, tw = 0, th = 0;
+    int64_t ntx = 1;
 
     if (pt->num_chans == 0)
         return FP_OK;
     if (pt->storage == EXR_STORAGE_SCANLINE) {
-        int32_t lpc = 0;
         rv = exr_get_scanlines_per_chunk(f->ctx, p, &lpc);
         if (rv != EXR_ERR_SUCCESS)
             goto fail;
-        for (int64_t y = pt->dw.min.y; y <= pt->dw.max.y; y += lpc) {
-            at_y = (int) y;
-            rv = exr_read_scanline_chunk_info(f->ctx, p, (int) y, &ci);
-            if (rv == EXR_ERR_SUCCESS)
-                rv = decode_chunk(f, p, &dec, &inited, &ci, pt->dw.min.x, (int) y);
-            if (rv != EXR_ERR_SUCCESS)
-                goto fail;
-        }
+        nmax = (h + lpc - 1) / lpc;
     } else {
         /* tiled: the highest resolution level (0,0) only */
-        int32_t tw = 0, th = 0;
         rv = exr_get_tile_sizes(f->ctx, p, 0, 0, &tw, &th);
         if (rv != EXR_ERR_SUCCESS)
             goto fail;
-        int64_t w = (int64_t) pt->dw.max.x - pt->dw.min.x + 1;
-        int64_t h = (int64_t) pt->dw.max.y - pt->dw.min.y + 1;
-        int64_t ntx = (w + tw - 1) / tw, nty = (h + th - 1) / th;
-        for (int64_t ty = 0; ty < nty; ++ty)
-            for (int64_t tx = 0; tx < ntx; ++tx) {
-                at_x = (int) (pt->dw.min.x + tx * tw);
-                at_y = (int) (pt->dw.min.y + ty * th);
-                rv = exr_read_tile_chunk_info(f->ctx, p, (int) tx, (int) ty, 0, 0, &ci);
-                if (rv == EXR_ERR_SUCCESS)
-                    rv = decode_chunk(f, p, &dec, &inited, &ci, at_x, at_y);
-                if (rv != EXR_ERR_SUCCESS)
-                    goto fail;
-            }
+        ntx = (w + tw - 1) / tw;
+        nmax = ntx * ((h + th - 1) / th);
+    }
+    ci = malloc((size_t) nmax * sizeof *ci);
+    xy = malloc((size_t) nmax * 2 * sizeof *xy);
+    if (!ci || !xy) {
+        fp_error("%s: frame %ld: out of memory", where, frame);
+        goto done;
+    }
+    /* Where every chunk is, in file order, up to the first that cannot be
+     * found: the chunks before it are decoded first, so that the error
+     * reported is the first in chunk order, as one thread would meet it. */
+    for (; n < nmax; ++n) {
+        if (pt->storage == EXR_STORAGE_SCANLINE) {
+            at_y = (int) (pt->dw.min.y + n * lpc);
+            rv = exr_read_scanline_chunk_info(f->ctx, p, at_y, &ci[n]);
+        } else {
+            int64_t tx = n % ntx, ty = n / ntx;
+            at_x = (int) (pt->dw.min.x + tx * tw);
+            at_y = (int) (pt->dw.min.y + ty * th);
+            rv = exr_read_tile_chunk_info(f->ctx, p, (int) tx, (int) ty, 0, 0, &ci[n]);
+        }
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        xy[n] = at_x;
+        xy[nmax + n] = at_y;
+    }
+    exr_result_t info_rv = rv;
+    char info_msg[FP_EXR_MSG_LEN];
+    snprintf(info_msg, sizeof info_msg, "%s", f->io.msg);
+    f->io.msg[0] = '\0';
+
+    int nw = fp_exr_workers(w * h, n);
+    wk = calloc((size_t) nw, sizeof *wk);
+    if (!wk) {
+        fp_error("%s: frame %ld: out of memory", where, frame);
+        goto done;
+    }
+    dec_job_t job = { f, p, ci, xy, xy + nmax, n, 0, 0 };
+    for (int i = 0; i < nw; ++i) {
+        wk[i].job = &job;
+        wk[i].fail = -1;
+    }
+    fp_exr_run_workers(dec_work, wk, sizeof *wk, nw);
+    int first = -1;
+    for (int i = 0; i < nw; ++i)
+        if (wk[i].fail >= 0 && (first < 0 || wk[i].fail < wk[first].fail))
+            first = i;
+    if (first >= 0) {
+        int64_t k = wk[first].fail;
+        rv = wk[first].rv;
+        at_x = xy[k];
+        at_y = xy[nmax + k];
+        why = wk[first].msg;
+        goto fail;
+    }
+    if (info_rv != EXR_ERR_SUCCESS) {
+        rv = info_rv;
+        snprintf(f->io.msg, sizeof f->io.msg, "%s", info_msg);
+        goto fail;
     }
     rc = FP_OK;
     goto done;
 fail:
+    if (why && why[0])
+        snprintf(lt, sizeof lt, "%s", why);
+    else
+        lib_text(&f->io, rv, lt, sizeof lt);
+    f->io.msg[0] = '\0';
     fp_error("%s: frame %ld: part %d: cannot decode pixels at %d,%d (%s%s)",
-             where, frame, p, at_x, at_y, lib_text(&f->io, rv, lt, sizeof lt),
+             where, frame, p, at_x, at_y, lt,
              rv == EXR_ERR_FEATURE_NOT_IMPLEMENTED
                  ? "; this OpenEXR C library cannot read it: re-encode the input"
                  : "");
 done:
-    exr_decoding_destroy(f->ctx, &dec);
+    free(wk);
+    free(xy);
+    free(ci);
     return rc;
 }
 
@@ -1202,80 +1356,186 @@ static int needs_long_names(exr_context_t o, int nparts)
     return 0;
 }
 
+/* The chunks of one output part, packed and compressed by workers that
+ * each claim the next chunk and run their own pipeline, each keeping its
+ * chunk's bytes; the calling thread then writes them in chunk order (the
+ * order the library requires), so the file is the same bytes whatever the
+ * number of workers.  Once the header is written the library no longer
+ * changes the context while it encodes. */
+typedef struct enc_job_t {
+    exr_context_t o;
+    int idx;
+    const out_part_t *op;
+    const exr_attr_box2i_t *dw;
+    const exr_chunk_info_t *ci;
+    uint8_t **data;              /* each chunk's bytes, as written */
+    uint64_t *size;
+    int64_t n;
+    atomic_llong next;
+    atomic_int stop;
+} enc_job_t;
+
+typedef struct enc_worker_t {
+    enc_job_t *job;
+    int64_t fail;                /* first chunk it failed on, or -1 */
+    exr_result_t rv;
+    char msg[FP_EXR_MSG_LEN];
+} enc_worker_t;
+
+static exr_result_t encode_chunk(enc_job_t *j, exr_encode_pipeline_t *enc,
+                                 int *inited, int *map, int64_t k)
+{
+    const out_part_t *op = j->op;
+    const exr_chunk_info_t *ci = &j->ci[k];
+    exr_result_t rv = *inited ? exr_encoding_update(j->o, j->idx, ci, enc)
+                              : exr_encoding_initialize(j->o, j->idx, ci, enc);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    for (int c = 0; c < enc->channel_count; ++c) {
+        exr_coding_channel_info_t *cc = &enc->channels[c];
+        if (!*inited) {
+            map[c] = -1;
+            for (int i = 0; i < op->num; ++i)
+                if (strcmp(op->ch[i].name, cc->channel_name) == 0)
+                    map[c] = i;
+        }
+        if (map[c] < 0)
+            return EXR_ERR_INVALID_ARGUMENT;
+        const out_chan_t *oc = &op->ch[map[c]];
+        int64_t row = sampled_count(j->dw->min.y, ci->start_y, oc->ys);
+        cc->encode_from_ptr = oc->base + (size_t) row * oc->line_stride;
+        cc->user_pixel_stride = oc->pixel_stride;
+        cc->user_line_stride = (int32_t) oc->line_stride;
+        cc->user_bytes_per_element = (int16_t) oc->user_bpe;
+        cc->user_data_type = (uint16_t) oc->user_type;
+    }
+    if (!*inited) {
+        rv = exr_encoding_choose_default_routines(j->o, j->idx, enc);
+        if (rv != EXR_ERR_SUCCESS)
+            return rv;
+        /* kept here and written in order by the caller */
+        enc->yield_until_ready_fn = NULL;
+        enc->write_fn = NULL;
+        *inited = 1;
+    }
+    rv = exr_encoding_run(j->o, j->idx, enc);
+    if (rv != EXR_ERR_SUCCESS)
+        return rv;
+    j->size[k] = enc->compressed_bytes;
+    j->data[k] = malloc(enc->compressed_bytes ? (size_t) enc->compressed_bytes : 1);
+    if (!j->data[k])
+        return EXR_ERR_OUT_OF_MEMORY;
+    memcpy(j->data[k], enc->compressed_buffer, (size_t) enc->compressed_bytes);
+    return EXR_ERR_SUCCESS;
+}
+
+static void *enc_work(void *arg)
+{
+    enc_worker_t *w = arg;
+    enc_job_t *j = w->job;
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    int inited = 0;
+    int *map = malloc((size_t) (j->op->num > 0 ? j->op->num : 1) * sizeof *map);
+    char *saved = tl_msg;
+    tl_msg = w->msg;
+    for (;;) {
+        int64_t k = atomic_fetch_add(&j->next, 1);
+        if (k >= j->n || atomic_load(&j->stop))
+            break;
+        exr_result_t rv = map ? encode_chunk(j, &enc, &inited, map, k)
+                              : EXR_ERR_OUT_OF_MEMORY;
+        if (rv != EXR_ERR_SUCCESS) {
+            w->fail = k;
+            w->rv = rv;
+            atomic_store(&j->stop, 1);
+            break;
+        }
+    }
+    if (inited || enc.channels)
+        exr_encoding_destroy(j->o, &enc);
+    free(map);
+    tl_msg = saved;
+    return NULL;
+}
+
 static int encode_part(exr_context_t o, int idx, const out_part_t *op,
                        const exr_attr_box2i_t *dw, fp_exr_io_t *io,
                        const char *where, long frame)
 {
     char lt[512];
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    exr_chunk_info_t ci;
-    int inited = 0;
     int rc = FP_ERR;
     int32_t lpc = 0;
-    int *map = NULL;
-    int64_t y = dw->min.y;
+    int64_t y = dw->min.y, n = 0;
+    const char *why = NULL;
+    exr_chunk_info_t *ci = NULL;
+    uint8_t **data = NULL;
+    uint64_t *size = NULL;
+    enc_worker_t *wk = NULL;
+    int64_t w = (int64_t) dw->max.x - dw->min.x + 1;
+    int64_t h = (int64_t) dw->max.y - dw->min.y + 1;
     exr_result_t rv = exr_get_scanlines_per_chunk(o, idx, &lpc);
     if (rv != EXR_ERR_SUCCESS)
         goto fail;
-    map = malloc((size_t) (op->num > 0 ? op->num : 1) * sizeof *map);
-    if (!map) {
+    n = (h + lpc - 1) / lpc;
+    ci = malloc((size_t) n * sizeof *ci);
+    data = calloc((size_t) n, sizeof *data);
+    size = calloc((size_t) n, sizeof *size);
+    int nw = fp_exr_workers(w * h, n);
+    wk = calloc((size_t) nw, sizeof *wk);
+    if (!ci || !data || !size || !wk) {
         rv = EXR_ERR_OUT_OF_MEMORY;
         goto fail;
     }
-    int64_t h = (int64_t) dw->max.y - dw->min.y + 1;
-    int64_t nchunks = (h + lpc - 1) / lpc;
     /* Chunks in increasing order, as the part's line order says. */
-    for (int64_t k = 0; k < nchunks; ++k) {
+    for (int64_t k = 0; k < n; ++k) {
         y = dw->min.y + k * lpc;
-        rv = exr_write_scanline_chunk_info(o, idx, (int) y, &ci);
+        rv = exr_write_scanline_chunk_info(o, idx, (int) y, &ci[k]);
         if (rv != EXR_ERR_SUCCESS)
             goto fail;
-        rv = inited ? exr_encoding_update(o, idx, &ci, &enc)
-                    : exr_encoding_initialize(o, idx, &ci, &enc);
-        if (rv != EXR_ERR_SUCCESS)
-            goto fail;
-        for (int c = 0; c < enc.channel_count; ++c) {
-            exr_coding_channel_info_t *cc = &enc.channels[c];
-            if (!inited) {
-                map[c] = -1;
-                for (int i = 0; i < op->num; ++i)
-                    if (strcmp(op->ch[i].name, cc->channel_name) == 0)
-                        map[c] = i;
-            }
-            if (map[c] < 0) {
-                rv = EXR_ERR_INVALID_ARGUMENT;
-                goto fail;
-            }
-            const out_chan_t *oc = &op->ch[map[c]];
-            int64_t row = sampled_count(dw->min.y, ci.start_y, oc->ys);
-            cc->encode_from_ptr = oc->base + (size_t) row * oc->line_stride;
-            cc->user_pixel_stride = oc->pixel_stride;
-            cc->user_line_stride = (int32_t) oc->line_stride;
-            cc->user_bytes_per_element = (int16_t) oc->user_bpe;
-            cc->user_data_type = (uint16_t) oc->user_type;
-        }
-        if (!inited) {
-            rv = exr_encoding_choose_default_routines(o, idx, &enc);
-            if (rv != EXR_ERR_SUCCESS)
-                goto fail;
-            inited = 1;
-        }
-        rv = exr_encoding_run(o, idx, &enc);
+    }
+    enc_job_t job = { o, idx, op, dw, ci, data, size, n, 0, 0 };
+    for (int i = 0; i < nw; ++i) {
+        wk[i].job = &job;
+        wk[i].fail = -1;
+    }
+    fp_exr_run_workers(enc_work, wk, sizeof *wk, nw);
+    int first = -1;
+    for (int i = 0; i < nw; ++i)
+        if (wk[i].fail >= 0 && (first < 0 || wk[i].fail < wk[first].fail))
+            first = i;
+    if (first >= 0) {
+        y = dw->min.y + wk[first].fail * lpc;
+        rv = wk[first].rv;
+        why = wk[first].msg;
+        goto fail;
+    }
+    for (int64_t k = 0; k < n; ++k) {
+        y = dw->min.y + k * lpc;
+        rv = exr_write_scanline_chunk(o, idx, (int) y, data[k], size[k]);
         if (rv != EXR_ERR_SUCCESS)
             goto fail;
     }
     rc = FP_OK;
     goto done;
 fail:
+    if (why && why[0])
+        snprintf(lt, sizeof lt, "%s", why);
+    else
+        lib_text(io, rv, lt, sizeof lt);
+    io->msg[0] = '\0';
     fp_error("%s: frame %ld: cannot encode part %d at line %lld (%s%s)", where,
-             frame, idx, (long long) y, lib_text(io, rv, lt, sizeof lt),
+             frame, idx, (long long) y, lt,
              rv == EXR_ERR_FEATURE_NOT_IMPLEMENTED
                  ? "; this OpenEXR C library cannot write it: choose another compression"
                  : "");
 done:
-    if (inited || enc.channels)
-        exr_encoding_destroy(o, &enc);
-    free(map);
+    if (data)
+        for (int64_t k = 0; k < n; ++k)
+            free(data[k]);
+    free(data);
+    free(size);
+    free(ci);
+    free(wk);
     return rc;
 }
 
