@@ -307,24 +307,32 @@ static float half_to_float(uint16_t h)
     return f;
 }
 
-static float sample_as_float(const fp_chan_t *ch, size_t i)
+/* A channel's samples [first, first + n) as floats, every `stride` floats
+ * from dst: one loop per sample type (this runs over every colour and depth
+ * sample). */
+static void samples_to_float(const fp_chan_t *ch, size_t first, size_t n,
+                             float *dst, size_t stride)
 {
+    const uint8_t *src = ch->raw + first * ch->bpe;
     switch (ch->type) {
-    case EXR_PIXEL_HALF: {
-        uint16_t h;
-        memcpy(&h, ch->raw + i * 2, 2);
-        return half_to_float(h);
-    }
-    case EXR_PIXEL_UINT: {
-        uint32_t u;
-        memcpy(&u, ch->raw + i * 4, 4);
-        return (float) u;
-    }
-    default: {
-        float v;
-        memcpy(&v, ch->raw + i * 4, 4);
-        return v;
-    }
+    case EXR_PIXEL_HALF:
+        for (size_t i = 0; i < n; ++i) {
+            uint16_t h;
+            memcpy(&h, src + i * 2, 2);
+            dst[i * stride] = half_to_float(h);
+        }
+        break;
+    case EXR_PIXEL_UINT:
+        for (size_t i = 0; i < n; ++i) {
+            uint32_t u;
+            memcpy(&u, src + i * 4, 4);
+            dst[i * stride] = (float) u;
+        }
+        break;
+    default:
+        for (size_t i = 0; i < n; ++i)
+            memcpy(&dst[i * stride], src + i * 4, 4);
+        break;
     }
 }
 
@@ -694,7 +702,18 @@ static int select_channels(fp_frame_t *f, const fp_exr_select_t *sel,
     return FP_OK;
 }
 
-/* Describe a part's channels and allocate their planes. */
+/* Which of R, G, B, A (0-3) channel c of part p is, or -1. */
+static int color_role(const fp_frame_t *f, int p, int c)
+{
+    if (p != f->color_part)
+        return -1;
+    for (int i = 0; i < 4; ++i)
+        if (f->color_chan[i] == c)
+            return i;
+    return -1;
+}
+
+/* Describe a part's channels (their planes come with alloc_planes). */
 static int setup_part(fp_frame_t *f, int p, const char *where, long frame)
 {
     char lt[512];
@@ -755,11 +774,36 @@ static int setup_part(fp_frame_t *f, int p, const char *where, long frame)
                                     ch->xs);
         ch->h = (int) sampled_count(pt->dw.min.y, (int64_t) pt->dw.max.y + 1,
                                     ch->ys);
-        size_t bytes = (size_t) ch->w * (size_t) ch->h * ch->bpe;
-        ch->raw = calloc(bytes ? bytes : 1, 1);
-        if (!ch->raw)
-            return fp_error("%s: frame %ld: out of memory (%zu bytes for "
-                            "channel %s)", where, frame, bytes, ch->name);
+    }
+    return FP_OK;
+}
+
+/* The planes of every channel that is kept as bytes: all but the colour
+ * channels, which the library decodes straight into the frame's float
+ * RGBA (a colour channel that is also the depth channel keeps its bytes).
+ * Not when the colour's part holds nothing but the colour: OpenEXR 3.1.5
+ * then takes a fast path for 3 or 4 half channels into interleaved floats
+ * that puts them in file order (A,B,G,R) whatever the pointers say, so
+ * those are decoded as bytes and converted here (to_float_rect). */
+static int alloc_planes(fp_frame_t *f, const char *where, long frame)
+{
+    int ncolor = 0;
+    for (int i = 0; i < 4; ++i)
+        ncolor += f->color_chan[i] >= 0;
+    int direct = f->color_part >= 0 && f->parts[f->color_part].num_chans > ncolor;
+    for (int p = 0; p < f->num_parts; ++p) {
+        fp_part_t *pt = &f->parts[p];
+        for (int c = 0; c < pt->num_chans; ++c) {
+            fp_chan_t *ch = &pt->chans[c];
+            if (direct && color_role(f, p, c) >= 0 &&
+                !(p == f->depth_part && c == f->depth_chan))
+                continue;
+            size_t bytes = (size_t) ch->w * (size_t) ch->h * ch->bpe;
+            ch->raw = calloc(bytes ? bytes : 1, 1);
+            if (!ch->raw)
+                return fp_error("%s: frame %ld: out of memory (%zu bytes for "
+                                "channel %s)", where, frame, bytes, ch->name);
+        }
     }
     return FP_OK;
 }
@@ -786,6 +830,22 @@ static exr_result_t decode_chunk(fp_frame_t *f, int p, exr_decode_pipeline_t *de
         fp_chan_t *ch = &pt->chans[k];
         int64_t row = sampled_count(pt->dw.min.y, y0, ch->ys);
         int64_t col = sampled_count(pt->dw.min.x, x0, ch->xs);
+        int role = ch->raw ? -1 : color_role(f, p, k);
+        if (role >= 0) {
+            /* straight into the float RGBA (full resolution, see
+             * select_channels) */
+            size_t at = ((size_t) row * (size_t) ch->w + (size_t) col) * 4 + (size_t) role;
+            cc->decode_to_ptr = (uint8_t *) (f->rgba + at);
+            cc->user_pixel_stride = 4 * (int32_t) sizeof(float);
+            cc->user_line_stride = (int32_t) ((size_t) ch->w * 4 * sizeof(float));
+            cc->user_bytes_per_element = (int16_t) sizeof(float);
+            cc->user_data_type = (uint16_t) EXR_PIXEL_FLOAT;
+            continue;
+        }
+        if (!ch->raw) {
+            cc->decode_to_ptr = NULL;
+            continue;
+        }
         cc->decode_to_ptr = ch->raw + ((size_t) row * (size_t) ch->w + (size_t) col) * ch->bpe;
         cc->user_pixel_stride = (int32_t) ch->bpe;
         cc->user_line_stride = (int32_t) ((size_t) ch->w * ch->bpe);
@@ -821,6 +881,44 @@ typedef struct dec_worker_t {
     char msg[FP_EXR_MSG_LEN];
 } dec_worker_t;
 
+/* The colour and depth of a decoded chunk, whose first pixel is (ax, ay),
+ * into the frame's floats (the chunk's pixels only, so that workers write
+ * apart). */
+static void to_float_rect(fp_frame_t *f, int p, const exr_chunk_info_t *ci,
+                          int ax, int ay)
+{
+    const fp_part_t *pt = &f->parts[p];
+    size_t w = (size_t) (pt->dw.max.x - pt->dw.min.x + 1);
+    /* (a tile's start_x, start_y are tile numbers: its first pixel is
+     * (ax, ay)) */
+    int64_t x0 = (int64_t) ax - pt->dw.min.x, y0 = (int64_t) ay - pt->dw.min.y;
+    int64_t cw = ci->width, ch = ci->height;
+    int64_t h = (int64_t) pt->dw.max.y - pt->dw.min.y + 1;
+    /* edge tiles: OpenEXR 3.1 may give a whole tile's size */
+    if (x0 + cw > (int64_t) w)
+        cw = (int64_t) w - x0;
+    if (y0 + ch > h)
+        ch = h - y0;
+    if (x0 < 0 || y0 < 0 || cw < 1 || ch < 1)
+        return;
+    for (int64_t r = y0; r < y0 + ch; ++r) {
+        size_t first = (size_t) r * w + (size_t) x0;
+        if (p == f->color_part)
+            for (int k = 0; k < 4; ++k) {
+                float *dst = f->rgba + first * 4 + (size_t) k;
+                if (f->color_chan[k] < 0)
+                    for (int64_t i = 0; i < cw; ++i)
+                        dst[i * 4] = 1.0f;
+                else if (pt->chans[f->color_chan[k]].raw) /* see alloc_planes */
+                    samples_to_float(&pt->chans[f->color_chan[k]], first,
+                                     (size_t) cw, dst, 4);
+            }
+        if (p == f->depth_part)
+            samples_to_float(&pt->chans[f->depth_chan], first, (size_t) cw,
+                             f->depth + first, 1);
+    }
+}
+
 static void *dec_work(void *arg)
 {
     dec_worker_t *w = arg;
@@ -835,6 +933,8 @@ static void *dec_work(void *arg)
             break;
         exr_result_t rv = decode_chunk(j->f, j->p, &dec, &inited, &j->ci[k],
                                        j->x0[k], j->y0[k]);
+        if (rv == EXR_ERR_SUCCESS)
+            to_float_rect(j->f, j->p, &j->ci[k], j->x0[k], j->y0[k]);
         if (rv != EXR_ERR_SUCCESS) {
             w->fail = k;
             w->rv = rv;
@@ -1047,6 +1147,24 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
             goto done;
     if (select_channels(f, sel, where, frame) != FP_OK)
         goto done;
+    f->main_part = f->color_part >= 0 ? f->color_part
+                   : f->depth_part >= 0 ? f->depth_part : 0;
+    const fp_part_t *mp = &f->parts[f->main_part];
+    size_t w = (size_t) (mp->dw.max.x - mp->dw.min.x + 1);
+    size_t h = (size_t) (mp->dw.max.y - mp->dw.min.y + 1);
+    /* Colour is decoded to float by the library, depth converted chunk by
+     * chunk as they are decoded (to_float_rect), by the thread that decoded
+     * the chunk.  Colour is written from rgba, so its bytes are not kept. */
+    if (f->color_part >= 0 && !(f->rgba = malloc(w * h * 4 * sizeof(float)))) {
+        fp_error("%s: frame %ld: out of memory", where, frame);
+        goto done;
+    }
+    if (f->depth_part >= 0 && !(f->depth = malloc(w * h * sizeof(float)))) {
+        fp_error("%s: frame %ld: out of memory", where, frame);
+        goto done;
+    }
+    if (alloc_planes(f, where, frame) != FP_OK)
+        goto done;
     for (int p = 0; p < f->num_parts; ++p)
         if (decode_part(f, p, where, frame) != FP_OK)
             goto done;
@@ -1058,32 +1176,10 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
     f->size = 0;
     f->io.rd = NULL;
     f->io.rd_size = 0;
-
-    f->main_part = f->color_part >= 0 ? f->color_part
-                   : f->depth_part >= 0 ? f->depth_part : 0;
-    const fp_part_t *mp = &f->parts[f->main_part];
-    size_t w = (size_t) (mp->dw.max.x - mp->dw.min.x + 1);
-    size_t h = (size_t) (mp->dw.max.y - mp->dw.min.y + 1);
-
     if (f->color_part >= 0) {
+        /* Colour decoded as bytes (see alloc_planes) is written from rgba:
+         * its bytes are not needed, but those of the depth channel are. */
         fp_part_t *pt = &f->parts[f->color_part];
-        f->rgba = malloc(w * h * 4 * sizeof(float));
-        if (!f->rgba) {
-            fp_error("%s: frame %ld: out of memory", where, frame);
-            goto done;
-        }
-        for (int k = 0; k < 4; ++k) {
-            int c = f->color_chan[k];
-            if (c < 0) {
-                for (size_t i = 0; i < w * h; ++i)
-                    f->rgba[i * 4 + 3] = 1.0f;
-                continue;
-            }
-            for (size_t i = 0; i < w * h; ++i)
-                f->rgba[i * 4 + (size_t) k] = sample_as_float(&pt->chans[c], i);
-        }
-        /* Colour is written from rgba, so its raw bytes are not needed;
-         * a depth channel that is also a colour channel keeps its own. */
         for (int k = 0; k < 4; ++k) {
             int c = f->color_chan[k];
             if (c >= 0 && !(f->depth_part == f->color_part && f->depth_chan == c)) {
@@ -1091,16 +1187,6 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
                 pt->chans[c].raw = NULL;
             }
         }
-    }
-    if (f->depth_part >= 0) {
-        const fp_chan_t *ch = &f->parts[f->depth_part].chans[f->depth_chan];
-        f->depth = malloc(w * h * sizeof(float));
-        if (!f->depth) {
-            fp_error("%s: frame %ld: out of memory", where, frame);
-            goto done;
-        }
-        for (size_t i = 0; i < w * h; ++i)
-            f->depth[i] = sample_as_float(ch, i);
     }
 
     fp_frame_info_t *in = &f->info;
