@@ -2714,6 +2714,52 @@ static void test_chunk_threads(void **state)
     std_img_free(&im);
 }
 
+/* Half colour specials (zeros, subnormals, the largest, infinities, a
+ * quiet NaN) come out as the exact floats, whether the library converts
+ * them (colour in a part with other channels) or exrio does (a part of
+ * colour only), on one thread or several. */
+static void test_half_specials(void **state)
+{
+    (void) state;
+    static const uint16_t sp[] = { 0x0000, 0x8000, 0x0001, 0x03ff, 0x8001, 0x0400,
+                                   0x7bff, 0xfbff, 0x7c00, 0xfc00, 0x7e00, 0x3c00,
+                                   0x3555, 0xc000 };
+    const size_t nsp = sizeof sp / sizeof sp[0];
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, WP, HP);
+    uint16_t *planes[4] = { im.r, im.g, im.b, im.a };
+    for (int k = 0; k < 4; ++k)
+        for (size_t i = 0; i < (size_t) WP * HP; ++i)
+            planes[k][i] = sp[(i * 7 + (size_t) k * 3) % nsp];
+    char in[4200];
+    path_in(in, sizeof in, "specials.exr");
+    for (int only_color = 0; only_color < 2; ++only_color)
+        for (int threads = 1; threads <= 4; threads += 3) {
+            tpart_t tp = std_part(&im, EXR_COMPRESSION_ZIP, box(0, 0, WP - 1, HP - 1),
+                                  box(0, 0, WP - 1, HP - 1), 1);
+            if (only_color)
+                tp.nch = 4; /* R, G, B, A */
+            write_exr(in, &tp, 1);
+            fp_exr_set_threads(threads);
+            fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
+            sel.need_depth = !only_color;
+            fp_frame_t *f = NULL;
+            assert_int_equal(fp_exr_read_file(in, 1, &sel, &f), FP_OK);
+            const float *rgba = fp_frame_rgba(f);
+            for (size_t i = 0; i < (size_t) WP * HP; ++i)
+                for (int k = 0; k < 4; ++k) {
+                    float want = h2f(planes[k][i]), got = rgba[i * 4 + (size_t) k];
+                    if (memcmp(&want, &got, 4) != 0)
+                        fail_msg("half %04x: %a, expected %a (colour only %d, "
+                                 "%d threads)", planes[k][i], (double) got,
+                                 (double) want, only_color, threads);
+                }
+            fp_frame_free(f);
+        }
+    fp_exr_set_threads(0);
+    std_img_free(&im);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -2743,6 +2789,7 @@ int main(void)
         cmocka_unit_test(test_bad_enums),
         cmocka_unit_test(test_stream_cut),
         cmocka_unit_test(test_chunk_threads),
+        cmocka_unit_test(test_half_specials),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }
