@@ -1,10 +1,11 @@
-/* Unit tests for src/exrio.c: EXR read/write round trips, channel
- * selection, stream framing and error paths.
+/* Unit tests for exrio.h (src/exr_read.c, exr_write.c, exr_stream.c):
+ * EXR read/write round trips, channel selection, stream framing, chunk
+ * threads and error paths.
  *
  * Input files are made here with OpenEXR's C API writer, in a temporary
  * directory under $FP_TMP (or /tmp) that is removed at the end.  Outputs
  * are checked with an independent reader built on the same C API, so a
- * bug in exrio.c's decoder cannot hide one in its encoder. */
+ * bug in exrio's decoder cannot hide one in its encoder. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
