@@ -151,4 +151,13 @@ int fp_exr_compression_writable(int compression);
 
 void fp_frame_free(fp_frame_t *f);
 
+/* Chunks of a frame are decoded and encoded by this many threads at once
+ * (the bytes written are the same whatever the count): 0, the default,
+ * is one per online core; 1 decodes and encodes on the calling thread.
+ * Parts under 65536 pixels always use one.  Process-wide; safe to call
+ * from any thread, taken by the next part to be decoded or encoded. */
+void fp_exr_set_threads(int n);
+/* The count in effect (0 resolved to the number of cores). */
+int fp_exr_threads(void);
+
 #endif

@@ -175,6 +175,7 @@ typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     int skip_existing;    /* leave frames whose output exists alone */
     char *stats;          /* per-frame timings as JSON */
     int no_fog;           /* benchmark: read and write only (the I/O floor) */
+    int io_threads;       /* threads per EXR part's chunks; 0: one per core */
 } fp_run_params_t;
 
 typedef struct fp_cmd_params_t {

@@ -82,7 +82,10 @@ const fp_option_t fp_run_options[] = {
       NULL, 0 },
     { "pipeline", 0, FP_OPT_ENUM, RUN(pipeline), 0, 0, "on", 0, 0, "off|on", "off|on",
       "decode the next frame and encode the previous one on their own threads while the "
-      "device computes (off: one frame at a time, for debugging)", NULL, 0 },
+      "device computes (off: one frame at a time on one thread, for debugging)", NULL, 0 },
+    { "io-threads", 0, FP_OPT_INT, RUN(io_threads), 0, 0, "0", 0, 64, NULL, "N",
+      "threads that decode and encode the chunks of one EXR frame at once (0: one per "
+      "core; --pipeline off: one); the bytes written are the same", NULL, 0 },
     { "no-fog", 0, FP_OPT_FLAG, RUN(no_fog), 0, 0, NULL, 0, 1, NULL, NULL,
       "benchmark: skip the fog, only read, decode, encode and write (the I/O floor)", NULL,
       FP_OPTF_HIDDEN },
@@ -592,6 +595,8 @@ static int run_loop(run_t *r, int (*next)(void *, fp_loop_job_t *), long total)
     fp_loop_ops_t ops = { r, next, stage_process, stage_write, stage_release };
     fp_loop_opts_t o = { 0 };
     o.pipelined = p->run.pipeline;
+    /* --pipeline off: one frame at a time on one thread */
+    fp_exr_set_threads(p->run.pipeline ? p->run.io_threads : 1);
     o.progress = p->run.progress;
     if (p->io.quiet || p->cmd.print_camera)
         o.progress = FP_PROGRESS_OFF;

@@ -42,6 +42,26 @@ echo "this is not an EXR file at all" > "$T/text.exr"
 fails "not an EXR" 1 "text.exr.*frame 1.*(not an EXR|magic)" "$T/o2.exr" "$FOGPIPE" -i "$T/text.exr" -o "$T/o2.exr"
 head -c 20000 "$S/scene.0001.exr" > "$T/trunc.exr"
 fails "truncated file" 1 "trunc.exr.*frame 1" "$T/o3.exr" "$FOGPIPE" -i "$T/trunc.exr" -o "$T/o3.exr"
+# Line order: a decreasing input (as OpenImageIO writes it) gives an output
+# that OpenImageIO reads, with the same pixels as the increasing input's.
+"$OIIOTOOL" "$S/scene.0001.exr" --attrib openexr:lineOrder decreasingY -o "$T/dec.exr"
+check "decreasing line order: fogged" "$FOGPIPE" -i "$T/dec.exr" -o "$T/dec.out.exr"
+check "decreasing line order: the output reads back (oiiotool)" "$OIIOTOOL" "$T/dec.out.exr" -o "$T/dec.back.exr"
+check "decreasing line order: the same pixels as from increasing" sh -c '"$FOGPIPE" -i "$1" -o "$2" &&
+  "$IDIFF" -q -fail 0 -warn 0 "$2" "$3"' sh "$S/scene.0001.exr" "$T/inc.out.exr" "$T/dec.out.exr"
+# Invalid enum values: refused, from a file and from a stream.
+poke() { # poke FILE ATTRNAME TYPENAME VALUE OUT: the attribute's first value byte set
+  at=$(grep -obUaP "$2\\x00$3\\x00" "$1" | head -1 | cut -d: -f1)
+  cp "$1" "$5" && printf "\\$(printf %o "$4")" |
+    dd of="$5" bs=1 seek=$((at + ${#2} + ${#3} + 6)) conv=notrunc 2>/dev/null
+}
+for e in "lineOrder lineOrder 99" "lineOrder lineOrder 3" "compression compression 99"; do
+  set -- $e
+  poke "$S/scene.0001.exr" "$1" "$2" "$3" "$T/enum.exr"
+  fails "$1 $3: refused" 1 "enum\.exr: frame 1: .*$1.*$3" "$T/enum.out.exr" \
+    "$FOGPIPE" -i "$T/enum.exr" -o "$T/enum.out.exr"
+  fails "$1 $3 in a stream: refused" 1 "<stdin>: frame 1: .*$1.*$3" - sh -c '"$FOGPIPE" < "$1" > /dev/null' sh "$T/enum.exr"
+done
 fails "no color channel" 1 "shadow.0001.exr.*frame 1.*no color" "$T/o4.exr" \
   "$FOGPIPE" -i "$S/shadow.0001.exr" -o "$T/o4.exr"
 "$OIIOTOOL" "$S/scene.0001.exr" --ch R,G,B,A -o "$T/nodepth.exr"

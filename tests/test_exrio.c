@@ -1,10 +1,11 @@
-/* Unit tests for src/exrio.c: EXR read/write round trips, channel
- * selection, stream framing and error paths.
+/* Unit tests for exrio.h (src/exr_read.c, exr_write.c, exr_stream.c):
+ * EXR read/write round trips, channel selection, stream framing, chunk
+ * threads and error paths.
  *
  * Input files are made here with OpenEXR's C API writer, in a temporary
  * directory under $FP_TMP (or /tmp) that is removed at the end.  Outputs
  * are checked with an independent reader built on the same C API, so a
- * bug in exrio.c's decoder cannot hide one in its encoder. */
+ * bug in exrio's decoder cannot hide one in its encoder. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -280,6 +281,9 @@ static void set_ptrs(exr_coding_channel_info_t *chans, int n, const tpart_t *tp,
     }
 }
 
+/* Names up to 255 characters in what try_write_exr writes next. */
+static int tw_long_names;
+
 /* Write parts with the C API; returns the library's result (the file is
  * removed on failure), so a test can probe what this library supports. */
 static exr_result_t try_write_exr(const char *path, const tpart_t *parts, int np)
@@ -294,6 +298,8 @@ static exr_result_t try_write_exr(const char *path, const tpart_t *parts, int np
     swc.y = 0.0f;
     init.error_handler_fn = quiet_handler;
     TRY(exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init));
+    if (tw_long_names)
+        TRY(exr_set_longname_support(ctx, 1));
     for (int p = 0; p < np; ++p) {
         const tpart_t *tp = &parts[p];
         int idx;
@@ -870,8 +876,9 @@ static void test_tiled_input(void **state)
     std_img_free(&im);
 }
 
-/* Negative data window origin, data window != display window, decreasing
- * line order: all kept. */
+/* Negative data window origin, data window != display window: kept;
+ * decreasing line order: normalized to increasing (see
+ * test_lineorder_decreasing). */
 static void test_negative_window(void **state)
 {
     (void) state;
@@ -905,7 +912,7 @@ static void test_negative_window(void **state)
     assert_int_equal(dw.min.y, -7);
     assert_int_equal(dw.max.x, -10 + W0 - 1);
     assert_int_equal(disp.max.x, 99);
-    assert_int_equal(lo, EXR_LINEORDER_DECREASING_Y);
+    assert_int_equal(lo, EXR_LINEORDER_INCREASING_Y);
     exr_finish(&c);
     assert_same_chan(in, 0, out, 0, "R");
     assert_same_chan(in, 0, out, 0, "N.X");
@@ -2182,6 +2189,551 @@ static void test_threads(void **state)
     std_img_free(&im);
 }
 
+/* ------------------------------------------------------------ long names */
+
+/* Names of 32 to 255 characters as Cycles writes them (through
+ * OpenImageIO): cycles.<ViewLayer>.<stat> attributes, and the channels of a
+ * view layer with a long name. */
+#define LONG_LAYER_LEN 230
+static char long_layer[LONG_LAYER_LEN + 1];
+static char long_chan[5][LONG_LAYER_LEN + 16];
+static char long_attr255[256];
+
+static void long_names_init(void)
+{
+    static const char *const suffix[5] = { ".Combined.R", ".Combined.G",
+                                           ".Combined.B", ".Combined.A",
+                                           ".Depth.Z" };
+    for (int i = 0; i < LONG_LAYER_LEN; ++i)
+        long_layer[i] = (char) ('a' + i % 26);
+    long_layer[LONG_LAYER_LEN] = '\0';
+    for (int k = 0; k < 5; ++k)
+        snprintf(long_chan[k], sizeof long_chan[k], "%s%s", long_layer, suffix[k]);
+    memcpy(long_attr255, "cycles.", 7);
+    for (int i = 7; i < 255; ++i)
+        long_attr255[i] = (char) ('A' + i % 26);
+    long_attr255[255] = '\0';
+}
+
+static void add_long_attrs(exr_context_t c, int p)
+{
+    assert_int_equal(exr_attr_set_string(c, p, "cycles.ViewLayer.synchronization_time",
+                                         "00:00.02"), 0);
+    assert_int_equal(exr_attr_set_string(c, p, "cycles.ViewLayer.total_time.x32",
+                                         "32 characters"), 0);
+    assert_int_equal(exr_attr_set_int(c, p, "cycles.ViewLayer.samples", 128), 0);
+    assert_int_equal(exr_attr_set_string(c, p, long_attr255, "255 characters"), 0);
+}
+
+/* The long names, byte for byte, in a file's header. */
+static void assert_long_names(const char *path, const char *what)
+{
+    exr_context_t c = open_hdr(path);
+    const char *s;
+    int32_t len;
+    if (exr_attr_get_string(c, 0, "cycles.ViewLayer.synchronization_time", &len, &s))
+        fail_msg("%s: no cycles.ViewLayer.synchronization_time", what);
+    assert_string_equal(s, "00:00.02");
+    assert_int_equal(exr_attr_get_string(c, 0, "cycles.ViewLayer.total_time.x32", &len, &s), 0);
+    assert_int_equal(strlen("cycles.ViewLayer.total_time.x32"), 31);
+    assert_string_equal(s, "32 characters");
+    int32_t iv;
+    assert_int_equal(exr_attr_get_int(c, 0, "cycles.ViewLayer.samples", &iv), 0);
+    assert_int_equal(iv, 128);
+    assert_int_equal(exr_attr_get_string(c, 0, long_attr255, &len, &s), 0);
+    assert_string_equal(s, "255 characters");
+    const exr_attr_chlist_t *cl;
+    assert_int_equal(exr_get_channels(c, 0, &cl), 0);
+    int found = 0;
+    for (int i = 0; i < cl->num_channels; ++i)
+        for (int k = 0; k < 5; ++k)
+            if (strcmp(cl->entries[i].name.str, long_chan[k]) == 0 &&
+                cl->entries[i].name.length == (int32_t) strlen(long_chan[k]))
+                found++;
+    if (found != 5)
+        fail_msg("%s: %d of the 5 long channel names", what, found);
+    exr_finish(&c);
+    /* the long-names flag (bit 10 of the version field) is set */
+    size_t n;
+    uint8_t *b = slurp_file(path, &n);
+    assert_true(n > 8);
+    assert_true(b[5] & 0x04);
+    free(b);
+}
+
+static void test_long_names(void **state)
+{
+    (void) state;
+    long_names_init();
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, W0, H0);
+    char in[4200], out[4200], sout[4200];
+    path_in(in, sizeof in, "long.exr");
+    path_in(out, sizeof out, "long.out.exr");
+    path_in(sout, sizeof sout, "long.stream.out.exr");
+    tpart_t tp;
+    memset(&tp, 0, sizeof tp);
+    tp.dw = tp.disp = box(0, 0, W0 - 1, H0 - 1);
+    tp.compression = EXR_COMPRESSION_ZIP;
+    tp.lineorder = EXR_LINEORDER_INCREASING_Y;
+    tp.ch[0] = (tchan_t) { long_chan[0], EXR_PIXEL_HALF, 1, 1, im.r };
+    tp.ch[1] = (tchan_t) { long_chan[1], EXR_PIXEL_HALF, 1, 1, im.g };
+    tp.ch[2] = (tchan_t) { long_chan[2], EXR_PIXEL_HALF, 1, 1, im.b };
+    tp.ch[3] = (tchan_t) { long_chan[3], EXR_PIXEL_HALF, 1, 1, im.a };
+    tp.ch[4] = (tchan_t) { long_chan[4], EXR_PIXEL_FLOAT, 1, 1, im.z };
+    tp.nch = 5;
+    tp.attrs = add_long_attrs;
+    tw_long_names = 1;
+    write_exr(in, &tp, 1);
+    tw_long_names = 0;
+    assert_long_names(in, "input");
+
+    /* file in, file out: colour and depth found in the long-named layer */
+    fp_frame_t *f = NULL;
+    assert_int_equal(fp_exr_read_file(in, 1, NULL, &f), FP_OK);
+    assert_string_equal(fp_frame_info(f)->color_names[0], long_chan[0]);
+    assert_string_equal(fp_frame_info(f)->depth_name, long_chan[4]);
+    assert_int_equal(fp_exr_write_file(f, NULL, NULL, out, 1), FP_OK);
+    fp_frame_free(f);
+    assert_long_names(out, "file output");
+    assert_same_chan(in, 0, out, 0, long_chan[4]);
+
+    /* a stream of two such frames: framed, decoded and written the same */
+    size_t n;
+    uint8_t *one = slurp_file(in, &n);
+    uint8_t *two = malloc(2 * n);
+    assert_non_null(two);
+    memcpy(two, one, n);
+    memcpy(two + n, one, n);
+    FILE *sin = fmemopen(two, 2 * n, "rb");
+    assert_non_null(sin);
+    for (int i = 0; i < 2; ++i) {
+        void *buf;
+        size_t size;
+        assert_int_equal(fp_exr_stream_next(sin, "<stdin>", i + 1, &buf, &size), FP_OK);
+        assert_int_equal(size, n);
+        assert_memory_equal(buf, one, n);
+        assert_int_equal(fp_exr_read_memory(buf, size, "<stdin>", i + 1, NULL, &f), FP_OK);
+        void *enc;
+        size_t enc_size;
+        assert_int_equal(fp_exr_encode(f, NULL, NULL, "<stdout>", i + 1, &enc, &enc_size),
+                         FP_OK);
+        fp_frame_free(f);
+        spit_file(sout, enc, enc_size);
+        free(enc);
+        assert_long_names(sout, "stream output");
+        size_t fn;
+        uint8_t *fb = slurp_file(out, &fn);
+        uint8_t *sb = slurp_file(sout, &n);
+        assert_int_equal(fn, n);
+        assert_memory_equal(fb, sb, n); /* the same bytes as file mode */
+        free(fb);
+        free(sb);
+        n = fn;
+    }
+    fclose(sin);
+    free(two);
+    free(one);
+
+    /* short names only: no long-names flag in the output */
+    path_in(in, sizeof in, "short.exr");
+    tpart_t sp = std_part(&im, EXR_COMPRESSION_ZIP, box(0, 0, W0 - 1, H0 - 1),
+                          box(0, 0, W0 - 1, H0 - 1), 1);
+    write_exr(in, &sp, 1);
+    assert_int_equal(fp_exr_read_file(in, 1, NULL, &f), FP_OK);
+    assert_int_equal(fp_exr_write_file(f, NULL, NULL, out, 1), FP_OK);
+    fp_frame_free(f);
+    uint8_t *b = slurp_file(out, &n);
+    assert_false(b[5] & 0x04);
+    free(b);
+    std_img_free(&im);
+}
+
+/* ------------------------------------------------------------ line order, enums */
+
+/* Decreasing line order in: the output declares increasing (the order its
+ * chunks are in) and holds the same pixels. */
+static void test_lineorder_decreasing(void **state)
+{
+    (void) state;
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, W0, H0);
+    char in[4200], out[4200];
+    path_in(in, sizeof in, "dec.exr");
+    path_in(out, sizeof out, "dec.out.exr");
+    static const int comps[] = { EXR_COMPRESSION_NONE, EXR_COMPRESSION_ZIP,
+                                 EXR_COMPRESSION_PIZ };
+    for (size_t k = 0; k < sizeof comps / sizeof comps[0]; ++k) {
+        tpart_t tp = std_part(&im, comps[k], box(0, 0, W0 - 1, H0 - 1),
+                              box(0, 0, W0 - 1, H0 - 1), 1);
+        tp.lineorder = EXR_LINEORDER_DECREASING_Y;
+        write_exr(in, &tp, 1);
+        fp_frame_t *f = NULL;
+        assert_int_equal(fp_exr_read_file(in, 3, NULL, &f), FP_OK);
+        assert_int_equal(fp_exr_write_file(f, NULL, NULL, out, 3), FP_OK);
+        fp_frame_free(f);
+        exr_context_t c = open_hdr(out);
+        exr_lineorder_t lo;
+        assert_int_equal(exr_get_lineorder(c, 0, &lo), 0);
+        assert_int_equal(lo, EXR_LINEORDER_INCREASING_Y);
+        /* the chunks lie in the file in the declared order */
+        int32_t lpc;
+        assert_int_equal(exr_get_scanlines_per_chunk(c, 0, &lpc), 0);
+        uint64_t prev = 0;
+        for (int y = 0; y < H0; y += lpc) {
+            exr_chunk_info_t ci;
+            assert_int_equal(exr_read_scanline_chunk_info(c, 0, y, &ci), 0);
+            assert_true(ci.data_offset > prev);
+            prev = ci.data_offset;
+        }
+        exr_finish(&c);
+        assert_same_chan(in, 0, out, 0, "R");
+        assert_same_chan(in, 0, out, 0, "Z");
+        assert_same_chan(in, 0, out, 0, "id");
+    }
+    std_img_free(&im);
+}
+
+static void add_envmap(exr_context_t c, int p)
+{
+    assert_int_equal(exr_attr_set_envmap(c, p, "envmap", EXR_ENVMAP_LATLONG), 0);
+}
+
+/* The byte after "<name>\0<type>\0<size>" in a header. */
+static size_t attr_value_at(const uint8_t *b, size_t n, const char *name,
+                            const char *type)
+{
+    size_t nl = strlen(name) + 1, tl = strlen(type) + 1;
+    for (size_t i = 8; i + nl + tl + 4 < n; ++i)
+        if (memcmp(b + i, name, nl) == 0 && memcmp(b + i + nl, type, tl) == 0)
+            return i + nl + tl + 4;
+    fail_msg("attribute %s not found", name);
+    return 0;
+}
+
+/* Invalid enum values are refused, from a file and from a stream, with
+ * one message naming the file, the frame and the attribute. */
+static void test_bad_enums(void **state)
+{
+    (void) state;
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, W0, H0);
+    char in[4200], bad[4200];
+    path_in(in, sizeof in, "enum.exr");
+    path_in(bad, sizeof bad, "enum.bad.exr");
+    tpart_t tp = std_part(&im, EXR_COMPRESSION_NONE, box(0, 0, W0 - 1, H0 - 1),
+                          box(0, 0, W0 - 1, H0 - 1), 1);
+    tp.attrs = add_envmap;
+    write_exr(in, &tp, 1);
+    size_t n;
+    uint8_t *good = slurp_file(in, &n);
+    fp_frame_t *f = NULL;
+    assert_int_equal(fp_exr_read_memory(good, n, in, 1, NULL, &f), FP_OK);
+    fp_frame_free(f);
+    good = slurp_file(in, &n);
+
+    struct {
+        const char *name, *type;
+        size_t skip;     /* bytes into the value */
+        uint8_t value;
+        const char *says;
+    } cases[] = {
+        { "lineOrder", "lineOrder", 0, 99, "lineOrder" },
+        { "lineOrder", "lineOrder", 0, 3, "lineOrder" },
+        { "compression", "compression", 0, 99, "compression" },
+        { "compression", "compression", 0, EXR_COMPRESSION_LAST_TYPE, "compression" },
+        { "envmap", "envmap", 0, 99, "envmap" },
+        { "channels", "chlist", 2 + 4, 9, "perceptual linear" }, /* channel A's pLinear */
+        { "channels", "chlist", 2, 7, "type" },           /* channel A's pixel type */
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+        uint8_t *b = malloc(n);
+        assert_non_null(b);
+        memcpy(b, good, n);
+        b[attr_value_at(b, n, cases[k].name, cases[k].type) + cases[k].skip] = cases[k].value;
+        spit_file(bad, b, n);
+        /* file */
+        f = (fp_frame_t *) 1;
+        cap_begin();
+        int rc = fp_exr_read_file(bad, 7, NULL, &f);
+        const char *msg = cap_end();
+        if (rc != FP_ERR)
+            fail_msg("%s = %d accepted", cases[k].name, cases[k].value);
+        assert_null(f);
+        assert_contains(msg, "enum.bad.exr: frame 7:");
+        assert_contains(msg, cases[k].says);
+        assert_non_null(strchr(msg, '\n'));
+        assert_null(strchr(msg, '\n') + 1 < msg + strlen(msg) ? strchr(strchr(msg, '\n') + 1, '\n') : NULL);
+        /* stream: the framing or the decoder refuses it */
+        FILE *sin = fmemopen(b, n, "rb");
+        assert_non_null(sin);
+        void *buf = NULL;
+        size_t size;
+        cap_begin();
+        rc = fp_exr_stream_next(sin, "<stdin>", 4, &buf, &size);
+        if (rc == FP_OK)
+            rc = fp_exr_read_memory(buf, size, "<stdin>", 4, NULL, &f);
+        msg = cap_end();
+        fclose(sin);
+        if (rc != FP_ERR)
+            fail_msg("stream: %s = %d accepted", cases[k].name, cases[k].value);
+        assert_contains(msg, "<stdin>: frame 4:");
+        assert_contains(msg, cases[k].says);
+        free(b);
+    }
+    free(good);
+    std_img_free(&im);
+}
+
+/* ------------------------------------------------------------ cut frames */
+
+static int stream_read_n(const uint8_t *data, size_t n, int frames, const char **msg)
+{
+    FILE *in = fmemopen((void *) data, n, "rb");
+    assert_non_null(in);
+    int rc = FP_OK;
+    cap_begin();
+    for (int i = 1; i <= frames && rc == FP_OK; ++i) {
+        void *buf = NULL;
+        size_t size;
+        rc = fp_exr_stream_next(in, "<stdin>", i, &buf, &size);
+        if (rc == FP_OK) {
+            fp_frame_t *f = NULL;
+            rc = fp_exr_read_memory(buf, size, "<stdin>", i, NULL, &f);
+            fp_frame_free(f);
+        }
+        if (rc != FP_OK)
+            rc = i;
+    }
+    *msg = cap_end();
+    fclose(in);
+    return rc;
+}
+
+/* An uncompressed frame cut short inside a stream: the error names it,
+ * not the frame after it, whose start it borrowed. */
+static void test_stream_cut(void **state)
+{
+    (void) state;
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, W0, H0);
+    char in[4200];
+    path_in(in, sizeof in, "cut.exr");
+    tpart_t tp = std_part(&im, EXR_COMPRESSION_NONE, box(0, 0, W0 - 1, H0 - 1),
+                          box(0, 0, W0 - 1, H0 - 1), 1);
+    write_exr(in, &tp, 1);
+    size_t n;
+    uint8_t *a = slurp_file(in, &n);
+    uint8_t *st = malloc(3 * n);
+    assert_non_null(st);
+    const size_t line = (size_t) W0 * (4 * 2 + 4 + 4 + 4); /* one chunk */
+    const size_t cuts[] = { 1, 2, 3, 4, 5, 6, 100, line - 8 - 1 };
+    for (size_t k = 0; k < sizeof cuts / sizeof cuts[0]; ++k) {
+        size_t len = 0;
+        memcpy(st, a, n);
+        len += n;
+        memcpy(st + len, a, n - cuts[k]);
+        len += n - cuts[k];
+        memcpy(st + len, a, n);
+        len += n;
+        const char *msg;
+        int bad = stream_read_n(st, len, 3, &msg);
+        if (bad != 2)
+            fail_msg("cut %zu: frame %d refused, expected 2: %s", cuts[k], bad, msg);
+        assert_contains(msg, "<stdin>: frame 2: truncated");
+    }
+    /* the last chunk holding a magic number and version by chance (a uint
+     * channel's last line): frames before a good frame, and at the end,
+     * are read */
+    uint32_t *id = im.id;
+    id[(size_t) (H0 - 1) * W0 + 0] = 0x01312f76u;
+    id[(size_t) (H0 - 1) * W0 + 1] = 2;
+    for (int round = 0; round < 2; ++round) {
+        if (round == 1) { /* ends with the first byte of one */
+            id[(size_t) (H0 - 1) * W0 + 0] = 0;
+            id[(size_t) (H0 - 1) * W0 + W0 - 1] = 0x76000000u;
+        }
+        write_exr(in, &tp, 1);
+        free(a);
+        a = slurp_file(in, &n);
+        assert_true(round == 0 || a[n - 1] == 0x76);
+        memcpy(st, a, n);
+        memcpy(st + n, a, n);
+        const char *msg;
+        assert_int_equal(stream_read_n(st, 2 * n, 2, &msg), FP_OK);
+        assert_string_equal(msg, "");
+    }
+    free(st);
+    free(a);
+    std_img_free(&im);
+}
+
+/* ------------------------------------------------------------ chunk threads */
+
+#define WP 320
+#define HP 243 /* not a multiple of any codec's lines per chunk */
+
+/* Read `path` and encode it back (with `comp` as the output compression,
+ * -1: the input's) on `threads` chunk threads. */
+static void read_encode(const char *path, int threads, int comp, int use_float,
+                        fp_frame_t **f, void **bytes, size_t *n)
+{
+    fp_exr_set_threads(threads);
+    assert_int_equal(fp_exr_threads(), threads);
+    assert_int_equal(fp_exr_read_file(path, 1, NULL, f), FP_OK);
+    fp_exr_write_opts_t o = FP_EXR_WRITE_OPTS_INITIALIZER;
+    o.compression = comp;
+    o.use_float = use_float;
+    assert_int_equal(fp_exr_encode(*f, NULL, &o, path, 1, bytes, n), FP_OK);
+}
+
+/* Chunks decoded and encoded on several threads give the frame and the
+ * bytes of one thread, for every compression this library has, scanline
+ * and tiled input, and an error in the same chunk with the same message. */
+static void test_chunk_threads(void **state)
+{
+    (void) state;
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, WP, HP);
+    char in[4200];
+    path_in(in, sizeof in, "par.exr");
+    static const int counts[] = { 2, 3, 4, 16 };
+    int tested = 0;
+    for (int comp = 0; comp < EXR_COMPRESSION_LAST_TYPE; ++comp)
+        for (int tiled = 0; tiled < 2; ++tiled) {
+            tpart_t tp = std_part(&im, comp, box(-5, 7, -5 + WP - 1, 7 + HP - 1),
+                                  box(0, 0, WP - 1, HP - 1), 1);
+            if (tiled) {
+                tp.tiled = 1;
+                tp.tw = 64;
+                tp.th = 48;
+                tp.level_mode = EXR_TILE_ONE_LEVEL;
+            }
+            exr_result_t wrv = try_write_exr(in, &tp, 1);
+            if (wrv == EXR_ERR_FEATURE_NOT_IMPLEMENTED)
+                continue; /* no DWA in OpenEXR 3.1's C library */
+            assert_int_equal(wrv, EXR_ERR_SUCCESS);
+            fp_frame_t *f1, *fn;
+            void *b1, *bn;
+            size_t n1, nn;
+            read_encode(in, 1, -1, comp & 1, &f1, &b1, &n1);
+            for (size_t k = 0; k < sizeof counts / sizeof counts[0]; ++k) {
+                read_encode(in, counts[k], -1, comp & 1, &fn, &bn, &nn);
+                assert_memory_equal(fp_frame_rgba(fn), fp_frame_rgba(f1),
+                                    (size_t) WP * HP * 4 * sizeof(float));
+                assert_memory_equal(fp_frame_depth(fn), fp_frame_depth(f1),
+                                    (size_t) WP * HP * sizeof(float));
+                if (nn != n1 || memcmp(bn, b1, n1) != 0)
+                    fail_msg("%s%s, %d threads: %zu bytes, one thread: %zu, or "
+                             "other bytes", fp_exr_compression_name(comp),
+                             tiled ? " tiled" : "", counts[k], nn, n1);
+                free(bn);
+                fp_frame_free(fn);
+                tested++;
+            }
+            fp_frame_free(f1);
+            free(b1);
+        }
+    assert_true(tested >= 8 * 2 * 4);
+
+    /* encode only, to each compression from one input */
+    tpart_t tp = std_part(&im, EXR_COMPRESSION_ZIP, box(0, 0, WP - 1, HP - 1),
+                          box(0, 0, WP - 1, HP - 1), 1);
+    write_exr(in, &tp, 1);
+    for (int comp = 0; comp < EXR_COMPRESSION_LAST_TYPE; ++comp) {
+        if (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB)
+            continue;
+        fp_frame_t *f1, *f4;
+        void *b1, *b4;
+        size_t n1, n4;
+        read_encode(in, 1, comp, 0, &f1, &b1, &n1);
+        read_encode(in, 4, comp, 0, &f4, &b4, &n4);
+        assert_int_equal(n1, n4);
+        assert_memory_equal(b1, b4, n1);
+        free(b1);
+        free(b4);
+        fp_frame_free(f1);
+        fp_frame_free(f4);
+    }
+
+    /* two chunks spoiled (ZIP, 16 lines each): the first in chunk order
+     * is reported, whatever the threads */
+    size_t n;
+    uint8_t *b = slurp_file(in, &n);
+    exr_context_t c = open_hdr(in);
+    for (int y = 80; y <= 160; y += 80) {
+        exr_chunk_info_t ci;
+        assert_int_equal(exr_read_scanline_chunk_info(c, 0, y, &ci), 0);
+        memset(b + ci.data_offset, 0xA5, (size_t) ci.packed_size < 64 ? (size_t) ci.packed_size : 64);
+    }
+    exr_finish(&c);
+    char bad[4200];
+    path_in(bad, sizeof bad, "par.bad.exr");
+    spit_file(bad, b, n);
+    free(b);
+    char msg1[1024];
+    for (int t = 1; t <= 4; t += 3) {
+        fp_exr_set_threads(t);
+        fp_frame_t *f = NULL;
+        cap_begin();
+        assert_int_equal(fp_exr_read_file(bad, 9, NULL, &f), FP_ERR);
+        const char *msg = cap_end();
+        assert_contains(msg, "par.bad.exr: frame 9: part 0: cannot decode pixels at 0,80");
+        if (t == 1)
+            snprintf(msg1, sizeof msg1, "%s", msg);
+        else
+            assert_string_equal(msg, msg1);
+    }
+    fp_exr_set_threads(0);
+    std_img_free(&im);
+}
+
+/* Half colour specials (zeros, subnormals, the largest, infinities, a
+ * quiet NaN) come out as the exact floats, whether the library converts
+ * them (colour in a part with other channels) or exrio does (a part of
+ * colour only), on one thread or several. */
+static void test_half_specials(void **state)
+{
+    (void) state;
+    static const uint16_t sp[] = { 0x0000, 0x8000, 0x0001, 0x03ff, 0x8001, 0x0400,
+                                   0x7bff, 0xfbff, 0x7c00, 0xfc00, 0x7e00, 0x3c00,
+                                   0x3555, 0xc000 };
+    const size_t nsp = sizeof sp / sizeof sp[0];
+    std_img_t im;
+    std_img_make(&im, EXR_PIXEL_HALF, WP, HP);
+    uint16_t *planes[4] = { im.r, im.g, im.b, im.a };
+    for (int k = 0; k < 4; ++k)
+        for (size_t i = 0; i < (size_t) WP * HP; ++i)
+            planes[k][i] = sp[(i * 7 + (size_t) k * 3) % nsp];
+    char in[4200];
+    path_in(in, sizeof in, "specials.exr");
+    for (int only_color = 0; only_color < 2; ++only_color)
+        for (int threads = 1; threads <= 4; threads += 3) {
+            tpart_t tp = std_part(&im, EXR_COMPRESSION_ZIP, box(0, 0, WP - 1, HP - 1),
+                                  box(0, 0, WP - 1, HP - 1), 1);
+            if (only_color)
+                tp.nch = 4; /* R, G, B, A */
+            write_exr(in, &tp, 1);
+            fp_exr_set_threads(threads);
+            fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
+            sel.need_depth = !only_color;
+            fp_frame_t *f = NULL;
+            assert_int_equal(fp_exr_read_file(in, 1, &sel, &f), FP_OK);
+            const float *rgba = fp_frame_rgba(f);
+            for (size_t i = 0; i < (size_t) WP * HP; ++i)
+                for (int k = 0; k < 4; ++k) {
+                    float want = h2f(planes[k][i]), got = rgba[i * 4 + (size_t) k];
+                    if (memcmp(&want, &got, 4) != 0)
+                        fail_msg("half %04x: %a, expected %a (colour only %d, "
+                                 "%d threads)", planes[k][i], (double) got,
+                                 (double) want, only_color, threads);
+                }
+            fp_frame_free(f);
+        }
+    fp_exr_set_threads(0);
+    std_img_free(&im);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -2206,6 +2758,12 @@ int main(void)
         cmocka_unit_test(test_deep_input),
         cmocka_unit_test(test_write_errors),
         cmocka_unit_test(test_threads),
+        cmocka_unit_test(test_long_names),
+        cmocka_unit_test(test_lineorder_decreasing),
+        cmocka_unit_test(test_bad_enums),
+        cmocka_unit_test(test_stream_cut),
+        cmocka_unit_test(test_chunk_threads),
+        cmocka_unit_test(test_half_specials),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }

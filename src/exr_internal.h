@@ -1,0 +1,147 @@
+/* fogpipe: what the EXR code shares, private to it (the public interface
+ * is exrio.h).  One file per job:
+ *   exr_common.c  glue to OpenEXR's C API (error handler, in-memory read
+ *                 and write callbacks), the chunk workers, compression
+ *                 names;
+ *   exr_read.c    reading a frame held in memory: channels found by name,
+ *                 chunks decoded, colour and depth as floats, every other
+ *                 channel kept as bytes;
+ *   exr_write.c   encoding a frame to memory and writing files atomically;
+ *   exr_stream.c  stream framing: one EXR file at a time from a pipe. */
+#ifndef FP_EXR_INTERNAL_H
+#define FP_EXR_INTERNAL_H
+
+#include "exrio.h"
+
+#include <openexr.h>
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Sanity limits against corrupt headers: a frame larger than these is far
+ * beyond what a compositor filter holds in memory, and refusing early
+ * turns a bad header into a message instead of a huge allocation. */
+#define FP_EXR_MAX_DIM        (1 << 20)            /* pixels along one axis */
+#define FP_EXR_MAX_PIXELS     ((int64_t) 1 << 30)  /* pixels in one part */
+#define FP_EXR_MAX_PARTS      4096
+#define FP_EXR_MAX_ATTR_SIZE  ((int64_t) 1 << 28)  /* one attribute value */
+#define FP_EXR_MAX_ATTRS      100000               /* attributes in one header */
+#define FP_EXR_MAX_CHUNKS     ((int64_t) 1 << 26)  /* offset table entries */
+#define FP_EXR_MAX_FILE       ((uint64_t) 1 << 40) /* bytes in one frame */
+
+#define FP_EXR_MAGIC 20000630
+/* Chunk workers: at most this many, and none below this many pixels. */
+#define FP_EXR_MAX_THREADS    64
+#define FP_EXR_PAR_MIN_PIXELS ((int64_t) 1 << 16)
+/* Longest attribute or channel name without the long-names flag; with it,
+ * 255 (OpenEXR's EXR_SHORTNAME_MAXLEN and EXR_LONGNAME_MAXLEN). */
+#define FP_EXR_SHORT_NAME 31
+#define FP_EXR_LONG_NAME 255
+#define FP_EXR_MSG_LEN 512
+
+/* One channel of a part, as read. */
+typedef struct fp_chan_t {
+    const char *name;    /* owned by the read context */
+    int type;            /* exr_pixel_type_t */
+    int p_linear;
+    int xs, ys;          /* sub-sampling */
+    int w, h;            /* samples per line, lines */
+    size_t bpe;          /* bytes per sample */
+    uint8_t *raw;        /* w*h samples, host byte order; NULL once consumed */
+} fp_chan_t;
+
+typedef struct fp_part_t {
+    int storage;         /* exr_storage_t of the input */
+    exr_attr_box2i_t dw, disp;
+    int compression;
+    int lineorder;
+    int num_chans;
+    fp_chan_t *chans;    /* in the order of the part's (sorted) channel list */
+} fp_part_t;
+
+/* The library's data for a context: the memory image read from, the
+ * buffer written to, and the text of the library's last complaint. */
+typedef struct fp_exr_io_t {
+    const uint8_t *rd;
+    size_t rd_size;
+    uint8_t *wr;
+    size_t wr_size, wr_cap;
+    int wr_failed;
+    char msg[FP_EXR_MSG_LEN];
+} fp_exr_io_t;
+
+struct fp_frame_t {
+    void *buf;           /* the file's bytes, read through io */
+    size_t size;
+    fp_exr_io_t io;
+    exr_context_t ctx;
+    int num_parts;
+    fp_part_t *parts;
+    int main_part;       /* colour's part, else depth's, else 0 */
+    int color_part, color_chan[4];
+    int depth_part, depth_chan;
+    float *rgba;
+    float *depth;
+    fp_frame_info_t info;
+    int *dwa_comp;       /* each part's compression in a DWA input (exr_dwa.h), else NULL */
+    int dwa_num_parts;
+};
+
+/* ------------------------------------------------------------ library glue
+ * (exr_common.c) */
+
+/* The message buffer of the call in progress on this thread (see
+ * fp_exr_lib_error_handler). */
+extern _Thread_local char *fp_exr_tl_msg;
+
+/* The error handler every context is made with: keeps the library's first
+ * message of a call in *fp_exr_tl_msg. */
+void fp_exr_lib_error_handler(exr_const_context_t ctxt, exr_result_t code,
+                              const char *msg);
+/* The library's text for a failure: what its handler said, else the
+ * generic text of the code.  Clears io->msg for the next call. */
+const char *fp_exr_lib_text(fp_exr_io_t *io, exr_result_t rv, char *out, size_t n);
+/* Read callbacks serving io->rd, and the write callback filling io->wr
+ * (pwrite semantics). */
+int64_t fp_exr_mem_read(exr_const_context_t ctxt, void *userdata, void *buffer,
+                        uint64_t sz, uint64_t offset,
+                        exr_stream_error_func_ptr_t error_cb);
+int64_t fp_exr_mem_size(exr_const_context_t ctxt, void *userdata);
+int64_t fp_exr_mem_write(exr_const_context_t ctxt, void *userdata,
+                         const void *buffer, uint64_t sz, uint64_t offset,
+                         exr_stream_error_func_ptr_t error_cb);
+
+/* ------------------------------------------------------------ chunk workers
+ * (exr_common.c) */
+
+/* How many workers a part of `pixels` pixels in `chunks` chunks gets. */
+int fp_exr_workers(int64_t pixels, int64_t chunks);
+/* Run fn on each of the n workers (records of `size` bytes), n - 1 of them
+ * on new threads; returns when all are done. */
+void fp_exr_run_workers(void *(*fn)(void *), void *workers, size_t size, int n);
+
+/* ------------------------------------------------------------ small helpers */
+
+static inline int64_t floordiv(int64_t a, int64_t b)
+{
+    int64_t q = a / b;
+    if ((a % b) != 0 && ((a < 0) != (b < 0)))
+        q--;
+    return q;
+}
+
+/* How many v in [lo, hi) have v mod s == 0: the samples a sub-sampled
+ * channel holds over that range (OpenEXR samples at multiples of s). */
+static inline int64_t sampled_count(int64_t lo, int64_t hi, int s)
+{
+    if (hi <= lo)
+        return 0;
+    return floordiv(hi - 1, s) - floordiv(lo - 1, s);
+}
+
+static inline size_t type_size(int type)
+{
+    return type == EXR_PIXEL_HALF ? 2 : 4;
+}
+
+#endif
