@@ -216,6 +216,49 @@ static int from_target(const double target[3], int up, fp_camera_t *c,
     return FP_OK;
 }
 
+/* The camera as text in a string attribute (Blender's stamp Note written by
+ * samples/blender/fogpipe_camera.py, whose Python writes this format):
+ *   fogpipe-camera 1 worldToCamera <16 numbers> worldToNDC <16 numbers>
+ * the two matrices as OpenEXR defines them (row-vector convention, row by
+ * row).  Blender can write only strings into an EXR header, so its render
+ * carries the standard matrices this way. */
+static int parse_camera_text(const fp_frame_info_t *info, const char *where_file, long frame,
+                             double w2c[16], double w2n[16])
+{
+    const char *s = strstr(info->camera_text, "fogpipe-camera");
+    const char *const names[2] = { "worldToCamera", "worldToNDC" };
+    double *mats[2] = { w2c, w2n };
+    char *end;
+    int ok = s != NULL;
+    long version = 0;
+    if (ok) {
+        s += strlen("fogpipe-camera");
+        version = strtol(s, &end, 10);
+        ok = end != s && version == 1;
+        s = end;
+    }
+    for (int m = 0; ok && m < 2; m++) {
+        while (*s == ' ' || *s == '\t' || *s == '\n' || *s == ';')
+            s++;
+        size_t n = strlen(names[m]);
+        if (strncmp(s, names[m], n) != 0) {
+            ok = 0;
+            break;
+        }
+        s += n;
+        for (int i = 0; ok && i < 16; i++) {
+            mats[m][i] = strtod(s, &end);
+            ok = end != s && isfinite(mats[m][i]);
+            s = end;
+        }
+    }
+    if (!ok)
+        return fp_error("%s: frame %ld: attribute '%s': expected 'fogpipe-camera 1 worldToCamera "
+                        "<16 numbers> worldToNDC <16 numbers>' (from samples/blender/"
+                        "fogpipe_camera.py)", where_file, frame, info->camera_text_attr);
+    return FP_OK;
+}
+
 /* One line of a Nuke .chan file for `frame`: frame tx ty tz rx ry rz vfov. */
 static int read_chan(const char *path, long frame, double v[7])
 {
@@ -272,6 +315,19 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
             have_proj = 1;
             snprintf(src_proj, sizeof src_proj, "header worldToNDC");
         }
+    } else if (info->camera_text[0]) {
+        double w2c[16], w2n[16];
+        if (parse_camera_text(info, where_file, frame, w2c, w2n))
+            return FP_ERR;
+        if (from_world_to_camera(w2c, &c))
+            return fp_error("%s: frame %ld: attribute '%s': worldToCamera is not invertible",
+                            where_file, frame, info->camera_text_attr);
+        if (from_world_to_ndc(w2c, w2n, &c))
+            return fp_error("%s: frame %ld: attribute '%s': worldToNDC is not a usable "
+                            "projection", where_file, frame, info->camera_text_attr);
+        have_pose = have_proj = 1;
+        snprintf(src_pose, sizeof src_pose, "header %.64s (fogpipe-camera)", info->camera_text_attr);
+        snprintf(src_proj, sizeof src_proj, "header %.64s (fogpipe-camera)", info->camera_text_attr);
     }
 
     double chan[7];
