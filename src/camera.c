@@ -136,6 +136,8 @@ static void cross3(const double a[3], const double b[3], double out[3])
 
 /* ------------------------------------------------------------ sources */
 
+enum { FP_CAM_ORTHO = 2 };  /* from_world_to_ndc: an orthographic projection */
+
 /* Orientation and position from worldToCamera: C2W = inverse(W2C); a
  * camera-space point c maps to [c,1] * C2W. */
 static int from_world_to_camera(const double w2c[16], fp_camera_t *c)
@@ -160,6 +162,12 @@ static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_came
     if (fp_mat4_inverse(w2c, c2w))
         return FP_ERR;
     fp_mat4_mul(c2w, w2n, c2n);
+    /* A perspective projection's w grows with the depth z; an orthographic
+     * one's does not (fogpipe's view rays all start at the camera). */
+    double wz = fabs(c2n[2 * 4 + 3]), wscale = fabs(c2n[0 * 4 + 3]) + fabs(c2n[1 * 4 + 3]) +
+                                                  fabs(c2n[3 * 4 + 3]);
+    if (!(wz > 1e-9 * wscale))
+        return FP_CAM_ORTHO;
     const int cols[3] = { 0, 1, 3 };
     for (int r = 0; r < 3; r++) {
         int k = cols[r];
@@ -309,7 +317,12 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
         have_pose = 1;
         snprintf(src_pose, sizeof src_pose, "header worldToCamera");
         if (info->has_world_to_ndc) {
-            if (from_world_to_ndc(info->world_to_camera, info->world_to_ndc, &c))
+            int r = from_world_to_ndc(info->world_to_camera, info->world_to_ndc, &c);
+            if (r == FP_CAM_ORTHO)
+                return fp_error("%s: frame %ld: worldToNDC is an orthographic projection "
+                                "(expected a perspective camera; override with --vfov)",
+                                where_file, frame);
+            if (r)
                 return fp_error("%s: frame %ld: worldToNDC is not a usable projection "
                                 "(override with --vfov)", where_file, frame);
             have_proj = 1;
@@ -322,7 +335,12 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
         if (from_world_to_camera(w2c, &c))
             return fp_error("%s: frame %ld: attribute '%s': worldToCamera is not invertible",
                             where_file, frame, info->camera_text_attr);
-        if (from_world_to_ndc(w2c, w2n, &c))
+        int r = from_world_to_ndc(w2c, w2n, &c);
+        if (r == FP_CAM_ORTHO)
+            return fp_error("%s: frame %ld: attribute '%s': an orthographic camera (expected "
+                            "a perspective camera; override with --vfov)", where_file, frame,
+                            info->camera_text_attr);
+        if (r)
             return fp_error("%s: frame %ld: attribute '%s': worldToNDC is not a usable "
                             "projection", where_file, frame, info->camera_text_attr);
         have_pose = have_proj = 1;

@@ -1,0 +1,100 @@
+#!/bin/sh
+# Renders from the real Blender (Debian's blender, Cycles on the CPU,
+# headless) through fogpipe with no camera option.  tests/blender/scene.py
+# builds a ground and a box seen by an animated camera (moving, turning,
+# rolling, zooming, lens shift) for each sensor fit (AUTO, VERTICAL on a
+# landscape frame, HORIZONTAL on a portrait frame) and an orthographic
+# camera; each is rendered (64x48, 1 sample, frames 1-3) the way a user
+# would, `blender -b shot.blend -P samples/blender/fogpipe_camera.py -a`,
+# with tests/blender/truth.py writing Blender's own camera and ray casts of
+# the same run.  Then, on every frame:
+#   - `fogpipe --print-camera --up z` equals Blender's camera (position,
+#     orientation, the fields of view through the frame's edges, shift
+#     included);
+#   - the fog (--density 0.2 --height 0,2, no camera option) of known
+#     pixels (a box corner, the ground, the box's foot, the center and the
+#     corners of the image) equals the closed form exp(-optical depth)
+#     along the ray Blender casts through that pixel's center within 1e-3,
+#     and the render's depth there is that ray's depth within 1e-3
+#     (relative): the points land on their pixels with their depth.
+# Skips when blender is not installed (./bootstrap check installs it).
+. "${FP_SRCDIR:-.}/tests/lib.sh"
+BLENDER=${BLENDER:-blender}
+if ! command -v "$BLENDER" >/dev/null 2>&1; then
+  skip "blender is not installed (Debian package blender; ./bootstrap check installs it)"
+  finish
+  exit $?
+fi
+ADDON="$FP_SRCDIR/samples/blender/fogpipe_camera.py"
+TB="$FP_SRCDIR/tests/blender"
+SIGMA=0.2
+HSCALE=2
+
+check "Blender builds the test scenes" sh -c '"$1" -b --factory-startup -noaudio \
+  -P "$2/scene.py" -- "$3/scene.blend" "$3" > "$3/scene.log" 2>&1 && test -f "$3/scene.blend" ||
+  { tail -n 20 "$3/scene.log"; exit 1; }' sh "$BLENDER" "$TB" "$T"
+
+# dump NAME FRAME FILE: "NAME FRAME X Y VALUE" for every pixel of a
+# one-channel image.
+dump() {
+  "$OIIOTOOL" --dumpdata "$3" |
+    sed -n "s/^ *Pixel (\([0-9]*\), \([0-9]*\)): *\([^ ]*\).*/$1 $2 \1 \2 \3/p"
+}
+
+for v in auto vertical horizontal ortho; do
+  D="$T/$v"
+  check "$v: Blender renders frames 1-3 with the add-on" sh -c '"$1" -b --factory-startup \
+    "$3/scene.blend" -S "$4" -noaudio -P "$2" -P "$5/truth.py" -a -- "$3" > "$3/$4.log" 2>&1 &&
+    test -f "$3/$4/render.0003.exr" && test -f "$3/$4/truth.0003.txt" ||
+    { grep -i -E "error|traceback" "$3/$4.log" | head -n 20; exit 1; }' \
+    sh "$BLENDER" "$ADDON" "$T" "$v" "$TB"
+  if [ "$v" = ortho ]; then
+    fails "ortho: an orthographic camera is refused in one line naming file and frame" 1 \
+      "render.0001.exr: frame 1: attribute 'Note': an orthographic camera" - \
+      "$FOGPIPE" --print-camera -i "$D/render.####.exr" --frames 1-3 --up z
+    continue
+  fi
+  check "$v: --print-camera equals Blender's camera on frames 1-3" sh -c '
+    "$1" --print-camera -i "$2/render.####.exr" --frames 1-3 --up z > "$2/camera.txt" &&
+    awk -v mode=camera -f "$3/compare.awk" "$2"/truth.*.txt "$2/camera.txt"' \
+    sh "$FOGPIPE" "$D" "$TB"
+  diag "$T/out.txt"
+
+  # The fog of the render as Blender wrote it, with no camera option.
+  IN="$D/render.####.exr"
+  st=0
+  "$FOGPIPE" -i "$IN" -o "$D/fog.####.exr" --frames 1-3 --up z --density $SIGMA \
+    --height 0,$HSCALE --aov > "$T/out.txt" 2>&1 || st=$?
+  if [ $st = 0 ]; then
+    ok "$v: fogpipe fogs Blender's frames with no camera option"
+  elif grep -q "too long for file" "$T/out.txt"; then
+    # Cycles writes attribute names longer than 31 characters
+    # (cycles.ViewLayer.synchronization_time); long names are issue 14's
+    # other part.  The camera checks go on with those attributes erased.
+    tap_n=$((tap_n + 1))
+    echo "not ok $tap_n - $v: fogpipe fogs Blender's frames with no camera option # TODO long attribute names"
+    diag "$T/out.txt"
+    for f in 1 2 3; do
+      "$OIIOTOOL" "$D/render.000$f.exr" --eraseattrib "cycles\\..*" -o "$D/short.000$f.exr"
+    done
+    IN="$D/short.####.exr"
+    check "$v: fogpipe fogs Blender's frames (Cycles' long attribute names erased)" \
+      "$FOGPIPE" -i "$IN" -o "$D/fog.####.exr" --frames 1-3 --up z --density $SIGMA \
+      --height 0,$HSCALE --aov
+  else
+    not_ok "$v: fogpipe fogs Blender's frames with no camera option"
+    diag "$T/out.txt"
+  fi
+  zch=ViewLayer.Depth.Z
+  [ "$v" = horizontal ] && zch=Z
+  for f in 1 2 3; do
+    "$OIIOTOOL" "$D/fog.000$f.exr" --ch transmittance.R -o "$D/tau.$f.exr" &&
+      "$OIIOTOOL" "$D/render.000$f.exr" --ch "$zch" -o "$D/z.$f.exr" &&
+      dump tau $f "$D/tau.$f.exr" && dump depth $f "$D/z.$f.exr"
+  done > "$D/values.txt" 2>&1
+  check "$v: known points land on their pixels with their depth, fog exact within 1e-3" \
+    awk -v mode=pixels -v sigma=$SIGMA -v H=$HSCALE -f "$TB/compare.awk" "$D"/truth.*.txt \
+    "$D/values.txt"
+  grep -E "^(pixels|MISS)" "$T/out.txt" | diag
+done
+finish
