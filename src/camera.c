@@ -20,6 +20,21 @@ const fp_option_t fp_camera_options[] = {
       "vertical field of view in degrees (overrides the header's worldToNDC)", NULL, 0 },
     { "camera-chan", 0, FP_OPT_STRING, CAM(chan), 0, 0, NULL, 0, 0, NULL, "FILE",
       "Nuke .chan camera file: lines 'frame tx ty tz rx ry rz vfov'", NULL, 0 },
+    { "chan-order", 0, FP_OPT_ENUM, CAM(chan_order), 0, 0, "zxy", 0, 0,
+      "xyz|xzy|yxz|yzx|zxy|zyx", NULL,
+      "order the .chan's rotations are applied in (Nuke's default zxy; Blender's .chan "
+      "export writes xyz)", NULL, 0 },
+    { "chan-up", 0, FP_OPT_ENUM, CAM(chan_up), 0, 0, "y", 0, 0, "y|z", NULL,
+      "up axis of the .chan's coordinates, turned into --up's (Nuke: y; Blender's export "
+      "with 'Make Y up' off: z)", NULL, 0 },
+    { "chan-sensor", 0, FP_OPT_VEC, CAM(chan_sensor), 2, 2, NULL, 0.01, 10000, NULL, "W,H",
+      "sensor of the camera that wrote the .chan, in mm: its last column is then Blender's "
+      "angle_y (taken from the sensor height H whatever the fit), and the frame's field of "
+      "view comes from that lens, the sensor and --chan-fit", NULL, 0 },
+    { "chan-fit", 0, FP_OPT_ENUM, CAM(chan_fit), 0, 0, "auto", 0, 0,
+      "auto|horizontal|vertical", NULL,
+      "Blender's sensor fit for --chan-sensor (auto: the width W along the longer side)",
+      NULL, 0 },
     { "up", 0, FP_OPT_ENUM, CAM(up), 0, 0, "y", 0, 0, "y|z", NULL,
       "world up axis (z for Blender-style data)", NULL, 0 },
     { "depth-kind", 0, FP_OPT_ENUM, CAM(depth_kind), 0, 0, "planar", 0, 0,
@@ -188,18 +203,36 @@ static void from_vfov(double vfov_deg, const fp_frame_info_t *info, fp_camera_t 
     memcpy(c->ndc_to_cam, h, sizeof h);
 }
 
-/* Nuke's ZXY order: rotate about Z, then X, then Y (R = Ry Rx Rz), camera
- * looking down -Z; OpenEXR camera space looks down +z, so flip z. */
-static void from_rotation(const double rot[3], fp_camera_t *c)
+/* Rotation angles applied in `order` (FP_ORDER_*: Nuke's ZXY rotates about
+ * Z, then X, then Y, R = Ry Rx Rz), camera looking down -Z; OpenEXR camera
+ * space looks down +z, so flip z. */
+static void from_rotation(const double rot[3], int order, fp_camera_t *c)
 {
-    double rx[9], ry[9], rz[9], r[9];
-    rot_x(rot[0], rx);
-    rot_y(rot[1], ry);
-    rot_z(rot[2], rz);
-    mat3_mul(ry, rx, r);
-    mat3_mul(r, rz, r);
+    static const char axes[6][3] = { { 0, 1, 2 }, { 0, 2, 1 }, { 1, 0, 2 },
+                                     { 1, 2, 0 }, { 2, 0, 1 }, { 2, 1, 0 } };
+    double m[3][9], r[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+    rot_x(rot[0], m[0]);
+    rot_y(rot[1], m[1]);
+    rot_z(rot[2], m[2]);
+    /* Applied first = rightmost: R = M[third] M[second] M[first]. */
+    for (int k = 0; k < 3; k++)
+        mat3_mul(m[(int)axes[order][k]], r, r);
     const double flip[9] = { 1, 0, 0, 0, 1, 0, 0, 0, -1 };
     mat3_mul(r, flip, c->c2w);
+}
+
+/* A .chan's coordinates (up axis chan_up) turned into the world's (up). */
+static void chan_to_world(int chan_up, int up, fp_camera_t *c)
+{
+    if (chan_up == up)
+        return;
+    /* y up -> z up: (x, y, z) -> (x, -z, y); z up -> y up: (x, y, z) -> (x, z, -y)
+     * (Blender's exporter's 'Make Y up'). */
+    const double s = chan_up == FP_UP_Y ? 1 : -1;
+    const double m[9] = { 1, 0, 0, 0, 0, -s, 0, s, 0 };
+    double o[3] = { c->origin[0], -s * c->origin[2], s * c->origin[1] };
+    memcpy(c->origin, o, sizeof o);
+    mat3_mul(m, c->c2w, c->c2w);
 }
 
 static int from_target(const double target[3], int up, fp_camera_t *c,
@@ -267,38 +300,115 @@ static int parse_camera_text(const fp_frame_info_t *info, const char *where_file
     return FP_OK;
 }
 
-/* One line of a Nuke .chan file for `frame`: frame tx ty tz rx ry rz vfov. */
+/* One line of a Nuke .chan file for `frame`: frame tx ty tz rx ry rz vfov.
+ * Every line is checked as the camera options are (finite numbers, the
+ * rotations in --camera-rot's range, the FOV in --vfov's), so a bad file is
+ * refused whichever frame is asked for. */
 static int read_chan(const char *path, long frame, double v[7])
 {
+    static const char *const names[8] = { "frame", "tx", "ty", "tz", "rx", "ry", "rz",
+                                          "vertical FOV" };
+    const fp_option_t *rot_opt = fp_options_find("camera-rot");
+    const fp_option_t *fov_opt = fp_options_find("vfov");
     FILE *f = fopen(path, "r");
     if (!f)
         return fp_error("%s: cannot open camera file (%s)", path, strerror(errno));
     char line[1024];
     int lineno = 0, found = 0, rc = FP_OK;
-    while (fgets(line, sizeof line, f)) {
+    while (rc == FP_OK && fgets(line, sizeof line, f)) {
         lineno++;
         char *s = line;
         while (*s == ' ' || *s == '\t')
             s++;
-        if (*s == '#' || *s == '\n' || *s == 0)
+        if (*s == '#' || *s == '\n' || *s == '\r' || *s == 0)
             continue;
-        double fr, a[7];
-        int n = sscanf(s, "%lf %lf %lf %lf %lf %lf %lf %lf", &fr, &a[0], &a[1], &a[2],
-                       &a[3], &a[4], &a[5], &a[6]);
+        double a[8];
+        int n = sscanf(s, "%lf %lf %lf %lf %lf %lf %lf %lf", &a[0], &a[1], &a[2], &a[3],
+                       &a[4], &a[5], &a[6], &a[7]);
         if (n != 8) {
             rc = fp_error("%s:%d: expected 'frame tx ty tz rx ry rz vfov'", path, lineno);
             break;
         }
-        if (fabs(fr - (double)frame) < 1e-6) {
-            memcpy(v, a, sizeof a);
+        for (int i = 0; i < 8 && rc == FP_OK; i++) {
+            double lo = i >= 4 && i < 7 ? rot_opt->min : i == 7 ? fov_opt->min : -INFINITY;
+            double hi = i >= 4 && i < 7 ? rot_opt->max : i == 7 ? fov_opt->max : INFINITY;
+            if (!isfinite(a[i]))
+                rc = fp_error("%s:%d: %s is %g (expected a finite number)", path, lineno,
+                              names[i], a[i]);
+            else if (a[i] < lo || a[i] > hi)
+                rc = fp_error("%s:%d: %s %g is out of range (expected %g..%g, as --%s)", path,
+                              lineno, names[i], a[i], lo, hi, i == 7 ? "vfov" : "camera-rot");
+        }
+        if (rc == FP_OK && !found && fabs(a[0] - (double)frame) < 1e-6) {
+            memcpy(v, a + 1, 7 * sizeof(double));
             found = 1;
-            break;
         }
     }
+    if (rc == FP_OK && ferror(f))
+        rc = fp_error("%s: read error", path);
     fclose(f);
     if (rc == FP_OK && !found)
         rc = fp_error("%s: no line for frame %ld", path, frame);
     return rc;
+}
+
+/* The vertical field of view of a camera in degrees: the angle between the
+ * rays through the middles of the display window's top and bottom edges. */
+static double camera_vfov(const fp_camera_t *c)
+{
+    double d[2][3];
+    for (int k = 0; k < 2; k++) {
+        const double *h = c->ndc_to_cam;
+        double x = h[0] * 0.5 + h[1] * k + h[2];
+        double y = h[3] * 0.5 + h[4] * k + h[5];
+        double w = h[6] * 0.5 + h[7] * k + h[8];
+        double v[3] = { x / w, y / w, 1 };
+        normalize3(v);
+        memcpy(d[k], v, sizeof v);
+    }
+    return acos(fmin(1, d[0][0] * d[1][0] + d[0][1] * d[1][1] + d[0][2] * d[1][2])) * 180 / M_PI;
+}
+
+/* The frame's vertical FOV from a .chan written by Blender's exporter: its
+ * column is angle_y = 2 atan(H / 2 lens) whatever the sensor fit; Blender
+ * fits the sensor W (auto: along the longer side; horizontal: along the
+ * width) or H (vertical) to the frame.  *lens gets the focal length. */
+static double chan_blender_vfov(const fp_camera_params_t *cp, const fp_frame_info_t *info,
+                                double col, double *lens)
+{
+    double w = info->disp_w * (info->pixel_aspect > 0 ? info->pixel_aspect : 1);
+    double h = info->disp_h;
+    *lens = cp->chan_sensor[1] / (2 * tan(col * M_PI / 360));
+    int fit = cp->chan_fit;
+    double sensor = cp->chan_sensor[0];
+    if (fit == FP_FIT_AUTO)
+        fit = w >= h ? FP_FIT_HORIZONTAL : FP_FIT_VERTICAL;
+    else if (fit == FP_FIT_VERTICAL)
+        sensor = cp->chan_sensor[1];
+    double t = sensor / (2 * *lens);          /* tan(half the fitted angle) */
+    if (fit == FP_FIT_HORIZONTAL)
+        t *= h / w;
+    return 2 * atan(t) * 180 / M_PI;
+}
+
+/* Once a run: what a .chan says against what the frame's header says. */
+static int chan_warned;
+
+static void chan_check(const fp_camera_params_t *cp, const fp_frame_info_t *info,
+                       const char *where_file, long frame, double chan_vfov, double chan_lens,
+                       double header_vfov)
+{
+    char msg[400] = "";
+    if (header_vfov > 0 && fabs(header_vfov - chan_vfov) > 0.05)
+        snprintf(msg, sizeof msg, "its vertical FOV %.3f deg disagrees with the header's "
+                 "camera (%.3f deg)", chan_vfov, header_vfov);
+    else if (info->lens_mm > 0 && chan_lens > 0 && fabs(chan_lens / info->lens_mm - 1) > 0.005)
+        snprintf(msg, sizeof msg, "its FOV with the sensor height %g mm gives a %.2f mm lens, "
+                 "the header's Lens says %.2f mm", cp->chan_sensor[1], chan_lens, info->lens_mm);
+    if (!msg[0] || __atomic_exchange_n(&chan_warned, 1, __ATOMIC_RELAXED))
+        return;
+    fp_warn("%s: frame %ld: camera file %s: %s (Blender's .chan export: --chan-order xyz, "
+            "--chan-sensor W,H; see README 'From Nuke')", where_file, frame, cp->chan, msg);
 }
 
 int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
@@ -352,9 +462,18 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
     if (cp->chan) {
         if (read_chan(cp->chan, frame, chan))
             return FP_ERR;
+        double header_vfov = have_proj ? camera_vfov(&c) : 0, lens = 0, vfov = chan[6];
+        if (fp_options_given(p, "chan-sensor"))
+            vfov = chan_blender_vfov(cp, info, chan[6], &lens);
+        if (!(vfov >= 0.01 && vfov <= 179))
+            return fp_error("%s: frame %ld: camera file %s: --chan-sensor %g,%g gives a "
+                            "vertical FOV of %g deg (expected 0.01..179)", where_file, frame,
+                            cp->chan, cp->chan_sensor[0], cp->chan_sensor[1], vfov);
+        chan_check(cp, info, where_file, frame, vfov, lens, header_vfov);
         memcpy(c.origin, chan, 3 * sizeof(double));
-        from_rotation(chan + 3, &c);
-        from_vfov(chan[6], info, &c);
+        from_rotation(chan + 3, cp->chan_order, &c);
+        chan_to_world(cp->chan_up, cp->up, &c);
+        from_vfov(vfov, info, &c);
         have_pose = have_proj = 1;
         snprintf(src_pose, sizeof src_pose, "%.150s", cp->chan);
         snprintf(src_proj, sizeof src_proj, "%.150s", cp->chan);
@@ -377,7 +496,7 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
         if (!have_pose)
             return fp_usage_error("%s: frame %ld: --camera-rot needs a camera position "
                                   "(--camera-pos or the header's worldToCamera)", where_file, frame);
-        from_rotation(cp->rot, &c);
+        from_rotation(cp->rot, FP_ORDER_ZXY, &c);
         snprintf(src_pose, sizeof src_pose, "options");
     }
     if (fp_options_given(p, "vfov")) {
