@@ -151,7 +151,6 @@ static void cross3(const double a[3], const double b[3], double out[3])
 
 /* ------------------------------------------------------------ sources */
 
-enum { FP_CAM_ORTHO = 2 };  /* from_world_to_ndc: an orthographic projection */
 
 /* Orientation and position from worldToCamera: C2W = inverse(W2C); a
  * camera-space point c maps to [c,1] * C2W. */
@@ -181,14 +180,20 @@ static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_came
      * one's does not (fogpipe's view rays all start at the camera). */
     double wz = fabs(c2n[2 * 4 + 3]), wscale = fabs(c2n[0 * 4 + 3]) + fabs(c2n[1 * 4 + 3]) +
                                                   fabs(c2n[3 * 4 + 3]);
-    if (!(wz > 1e-9 * wscale))
-        return FP_CAM_ORTHO;
+    /* (The header's matrices are single precision, 1e-5 is far above their
+     * rounding and far below a real perspective's w.) */
+    c->ortho = !(wz > 1e-5 * wscale);
+    /* Orthographic: NDC must not change along the view axis (no oblique
+     * projection), and G maps the camera plane's (x, y, 1) (z = 0). */
+    if (c->ortho && (fabs(c2n[2 * 4 + 0]) + fabs(c2n[2 * 4 + 1]) >
+                     1e-5 * (fabs(c2n[0]) + fabs(c2n[5]))))
+        return FP_ERR;
     const int cols[3] = { 0, 1, 3 };
     for (int r = 0; r < 3; r++) {
         int k = cols[r];
         g[r * 3 + 0] = c2n[0 * 4 + k];
         g[r * 3 + 1] = c2n[1 * 4 + k];
-        g[r * 3 + 2] = c2n[2 * 4 + k] + c2n[3 * 4 + k];
+        g[r * 3 + 2] = (c->ortho ? 0 : c2n[2 * 4 + k]) + c2n[3 * 4 + k];
     }
     return fp_mat3_inverse(g, c->ndc_to_cam);
 }
@@ -201,6 +206,7 @@ static void from_vfov(double vfov_deg, const fp_frame_info_t *info, fp_camera_t 
     double sx = sy / aspect;
     double h[9] = { 1 / sx, 0, -0.5 / sx, 0, -1 / sy, 0.5 / sy, 0, 0, 1 };
     memcpy(c->ndc_to_cam, h, sizeof h);
+    c->ortho = 0;
 }
 
 /* Rotation angles applied in `order` (FP_ORDER_*: Nuke's ZXY rotates about
@@ -427,12 +433,7 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
         have_pose = 1;
         snprintf(src_pose, sizeof src_pose, "header worldToCamera");
         if (info->has_world_to_ndc) {
-            int r = from_world_to_ndc(info->world_to_camera, info->world_to_ndc, &c);
-            if (r == FP_CAM_ORTHO)
-                return fp_error("%s: frame %ld: worldToNDC is an orthographic projection "
-                                "(expected a perspective camera; override with --vfov)",
-                                where_file, frame);
-            if (r)
+            if (from_world_to_ndc(info->world_to_camera, info->world_to_ndc, &c))
                 return fp_error("%s: frame %ld: worldToNDC is not a usable projection "
                                 "(override with --vfov)", where_file, frame);
             have_proj = 1;
@@ -445,12 +446,7 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
         if (from_world_to_camera(w2c, &c))
             return fp_error("%s: frame %ld: attribute '%s': worldToCamera is not invertible",
                             where_file, frame, info->camera_text_attr);
-        int r = from_world_to_ndc(w2c, w2n, &c);
-        if (r == FP_CAM_ORTHO)
-            return fp_error("%s: frame %ld: attribute '%s': an orthographic camera (expected "
-                            "a perspective camera; override with --vfov)", where_file, frame,
-                            info->camera_text_attr);
-        if (r)
+        if (from_world_to_ndc(w2c, w2n, &c))
             return fp_error("%s: frame %ld: attribute '%s': worldToNDC is not a usable "
                             "projection", where_file, frame, info->camera_text_attr);
         have_pose = have_proj = 1;
@@ -462,7 +458,8 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
     if (cp->chan) {
         if (read_chan(cp->chan, frame, chan))
             return FP_ERR;
-        double header_vfov = have_proj ? camera_vfov(&c) : 0, lens = 0, vfov = chan[6];
+        double header_vfov = have_proj && !c.ortho ? camera_vfov(&c) : 0, lens = 0,
+               vfov = chan[6];
         if (fp_options_given(p, "chan-sensor"))
             vfov = chan_blender_vfov(cp, info, chan[6], &lens);
         if (!(vfov >= 0.01 && vfov <= 179))
@@ -520,7 +517,9 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
 void fp_camera_print(FILE *out, const fp_camera_t *c, const fp_frame_info_t *info,
                      const char *where_file, long frame)
 {
-    /* Directions of the image center and edges, for the fields of view. */
+    /* The image center and the middles of its edges: directions for a
+     * perspective camera (the fields of view), points on the camera's plane
+     * for an orthographic one (the view's size). */
     double cc[3], top[3], bot[3], lft[3], rgt[3];
     double pts[5][2] = { { 0.5, 0.5 }, { 0.5, 0 }, { 0.5, 1 }, { 0, 0.5 }, { 1, 0.5 } };
     double *dirs[5] = { cc, top, bot, lft, rgt };
@@ -530,29 +529,39 @@ void fp_camera_print(FILE *out, const fp_camera_t *c, const fp_frame_info_t *inf
         double y = h[3] * pts[k][0] + h[4] * pts[k][1] + h[5];
         double w = h[6] * pts[k][0] + h[7] * pts[k][1] + h[8];
         double v[3] = { x / w, y / w, 1 };
-        normalize3(v);
+        if (!c->ortho)
+            normalize3(v);
         memcpy(dirs[k], v, sizeof v);
     }
-    double vfov = acos(fmin(1, top[0] * bot[0] + top[1] * bot[1] + top[2] * bot[2])) * 180 / M_PI;
-    double hfov = acos(fmin(1, lft[0] * rgt[0] + lft[1] * rgt[1] + lft[2] * rgt[2])) * 180 / M_PI;
-    double fw[3], up[3], rt[3];
+    double fw[3], up[3], rt[3], center[3];
+    const double axis[3] = { 0, 0, 1 }, *f = c->ortho ? axis : cc;
     for (int i = 0; i < 3; i++) {
-        fw[i] = c->c2w[i * 3] * cc[0] + c->c2w[i * 3 + 1] * cc[1] + c->c2w[i * 3 + 2] * cc[2];
+        fw[i] = c->c2w[i * 3] * f[0] + c->c2w[i * 3 + 1] * f[1] + c->c2w[i * 3 + 2] * f[2];
         rt[i] = c->c2w[i * 3];
         up[i] = c->c2w[i * 3 + 1];
+        center[i] = c->origin[i] + c->c2w[i * 3] * cc[0] + c->c2w[i * 3 + 1] * cc[1];
     }
     normalize3(fw);
     normalize3(up);
     normalize3(rt);
+    char proj[200];
+    if (c->ortho) {
+        snprintf(proj, sizeof proj, "orthographic view %.6g x %.6g centered at %.6g %.6g %.6g",
+                 fabs(rgt[0] - lft[0]), fabs(top[1] - bot[1]), center[0], center[1], center[2]);
+    } else {
+        double vfov = acos(fmin(1, top[0] * bot[0] + top[1] * bot[1] + top[2] * bot[2])) * 180 / M_PI;
+        double hfov = acos(fmin(1, lft[0] * rgt[0] + lft[1] * rgt[1] + lft[2] * rgt[2])) * 180 / M_PI;
+        snprintf(proj, sizeof proj, "vfov %.4f deg, hfov %.4f deg", vfov, hfov);
+    }
     fprintf(out,
             "%s: frame %ld: camera (%s)\n"
             "  position  %.6g %.6g %.6g\n"
             "  forward   %.6f %.6f %.6f\n"
             "  up        %.6f %.6f %.6f\n"
             "  right     %.6f %.6f %.6f\n"
-            "  vfov %.4f deg, hfov %.4f deg, display window %dx%d at (%d,%d), data window %dx%d at (%d,%d)\n",
+            "  %s, display window %dx%d at (%d,%d), data window %dx%d at (%d,%d)\n",
             where_file, frame, c->source, c->origin[0], c->origin[1], c->origin[2],
-            fw[0], fw[1], fw[2], up[0], up[1], up[2], rt[0], rt[1], rt[2], vfov, hfov,
+            fw[0], fw[1], fw[2], up[0], up[1], up[2], rt[0], rt[1], rt[2], proj,
             info->disp_w, info->disp_h, info->disp_x0, info->disp_y0, info->width,
             info->height, info->data_x0, info->data_y0);
 }
@@ -586,6 +595,7 @@ int fp_view_setup(const fp_camera_t *c, const fp_params_t *p,
     v.depth_kind = p->camera.depth_kind;
     v.width = info->width;
     v.height = info->height;
+    v.ortho = c->ortho;
     *out = v;
     return FP_OK;
 }
@@ -606,15 +616,25 @@ int fp_view_is_sky(const fp_view_t *v, float depth, int *suspicious)
     return isinf(z) || z >= 1e10 || z >= v->far;
 }
 
-void fp_view_ray(const fp_view_t *v, int x, int y, float depth, double dir[3], double *len)
+/* The camera-space point (perspective: direction (x/z, y/z, 1); orthographic:
+ * the point (x, y) on the camera's plane) of pixel (x, y). */
+static void view_cam(const fp_view_t *v, int x, int y, double c[2])
 {
     const double *h = v->h;
     double nx = (x + v->ndc_offset[0]) * v->ndc_scale[0];
     double ny = (y + v->ndc_offset[1]) * v->ndc_scale[1];
-    double cx = h[0] * nx + h[1] * ny + h[2];
-    double cy = h[3] * nx + h[4] * ny + h[5];
     double cw = h[6] * nx + h[7] * ny + h[8];
-    double c[3] = { cx / cw, cy / cw, 1 };
+    c[0] = (h[0] * nx + h[1] * ny + h[2]) / cw;
+    c[1] = (h[3] * nx + h[4] * ny + h[5]) / cw;
+}
+
+void fp_view_ray(const fp_view_t *v, int x, int y, float depth, double dir[3], double *len)
+{
+    double p[2];
+    view_cam(v, x, y, p);
+    /* An orthographic ray runs along the view axis; its depth is the
+     * distance from the camera's plane, planar or along the ray alike. */
+    double c[3] = { v->ortho ? 0 : p[0], v->ortho ? 0 : p[1], 1 };
     int suspicious;
     double scale;   /* camera-space point = c * scale */
     int sky = fp_view_is_sky(v, depth, &suspicious);
@@ -639,6 +659,17 @@ void fp_view_ray(const fp_view_t *v, int x, int y, float depth, double dir[3], d
     *len = sky ? INFINITY : l * scale;
 }
 
+void fp_view_origin_at(const fp_view_t *v, int x, int y, double o[3])
+{
+    memcpy(o, v->origin, 3 * sizeof(double));
+    if (!v->ortho)
+        return;
+    double p[2];
+    view_cam(v, x, y, p);
+    for (int i = 0; i < 3; i++)
+        o[i] += v->m[i * 3] * p[0] + v->m[i * 3 + 1] * p[1];
+}
+
 void fp_view_pack(const fp_view_t *v, float out[FP_VIEW_FLOATS])
 {
     memset(out, 0, FP_VIEW_FLOATS * sizeof(float));
@@ -654,4 +685,5 @@ void fp_view_pack(const fp_view_t *v, float out[FP_VIEW_FLOATS])
     out[24] = (float)v->ndc_offset[1];
     out[25] = (float)v->far;
     out[26] = (float)v->depth_kind;
+    out[27] = (float)v->ortho;
 }

@@ -337,14 +337,38 @@ static void test_camera_text(void **state)
     assert_double_equal(c.origin[2], 3, 1e-12);
     assert_double_equal(vfov_of(&c), 90, 1e-9);
     assert_non_null(strstr(c.source, "Note (fogpipe-camera)"));
-    /* Cut short, not finite, an unknown version, orthographic: refused. */
+    /* Orthographic, 4 x 3 scene units on 40x30 pixels, looking down +z from
+     * (1, 2, 3): NDC x = 0.5 + x / 4, y = 0.5 - y / 3.  Pixel (0, 0)'s ray
+     * starts at (1 - 1.95, 2 + 1.45, 3) and runs along +z for its depth,
+     * planar or radial alike. */
+    snprintf(info.camera_text, sizeof info.camera_text,
+             "fogpipe-camera 1 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 -1 -2 -3 1 "
+             "worldToNDC 0.25 0 0 0 0 -0.333333333333333333 0 0 0 0 1 0 0.25 1.16666666666666667 -3 1");
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    assert_true(c.ortho);
+    for (int kind = FP_DEPTH_PLANAR; kind <= FP_DEPTH_INVERSE; kind++) {
+        fp_view_t v;
+        p.camera.depth_kind = kind;
+        assert_int_equal(fp_view_setup(&c, &p, &info, &v), FP_OK);
+        double dir[3], len, o[3];
+        fp_view_ray(&v, 0, 0, kind == FP_DEPTH_INVERSE ? 0.2f : 5.0f, dir, &len);
+        fp_view_origin_at(&v, 0, 0, o);
+        assert_double_equal(o[0], 1 - 1.95, 1e-12);
+        assert_double_equal(o[1], 2 + 1.45, 1e-12);
+        assert_double_equal(o[2], 3, 1e-12);
+        assert_double_equal(dir[2], 1, 1e-12);
+        assert_double_equal(len, 5, 1e-6);
+    }
+    p.camera.depth_kind = FP_DEPTH_PLANAR;
+    /* Cut short, not finite, an unknown version, an oblique orthographic
+     * projection: refused. */
     const char *bad[] = { "fogpipe-camera 1 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 -1 -2 -3 1",
                           "fogpipe-camera 2 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 "
                           "worldToNDC 1 0 0 0 0 1 0 0 0 0 1 1 0 0 0 0",
                           "fogpipe-camera 1 worldToCamera nan 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 "
                           "worldToNDC 1 0 0 0 0 1 0 0 0 0 1 1 0 0 0 0",
                           "fogpipe-camera 1 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 "
-                          "worldToNDC 0.1 0 0 0 0 -0.1 0 0 0 0 1 0 0.5 0.5 0 1" };
+                          "worldToNDC 0.1 0 0 0 0 -0.1 0 0 0.05 0 1 0 0.5 0.5 0 1" };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         snprintf(info.camera_text, sizeof info.camera_text, "%s", bad[i]);
         assert_int_not_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
