@@ -12,9 +12,10 @@
 # (row-vector matrices, row by row), which fogpipe reads when the header has
 # no worldToCamera/worldToNDC matrices.  The matrices come from Blender's
 # own projection (Object.calc_matrix_camera) of the evaluated camera, so
-# animated cameras, lens, sensor fit (AUTO, HORIZONTAL, VERTICAL), lens
-# shift, pixel aspect and orthographic cameras are all what Cycles and
-# Eevee render.  Text you put in the Note yourself is kept in front.
+# animated cameras, camera switches at markers, lens, sensor fit (AUTO,
+# HORIZONTAL, VERTICAL), lens shift and orthographic cameras are what
+# Blender renders (tests/blender.sh checks them against Cycles' renders).
+# Text you put in the Note yourself is kept in front.
 #
 # Set it up once, either way:
 #   - as an add-on: Edit > Preferences > Add-ons > Install... this file,
