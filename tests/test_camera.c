@@ -376,6 +376,49 @@ static void test_camera_text(void **state)
     fp_options_free(&p);
 }
 
+/* The header's Lens (Blender's stamp) against a .chan read with
+ * --chan-sensor: a 50 mm lens in the header, a .chan whose angle_y says
+ * 30 mm, one warning naming both; the warning comes once a run. */
+static void test_chan_lens_warning(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/fp-chan-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    char line[100];
+    snprintf(line, sizeof line, "1 0 0 0 0 0 0 %.17g\n2 0 0 0 0 0 0 %.17g\n",
+             2 * atan(12.0 / 30) * 180 / M_PI, 2 * atan(12.0 / 50) * 180 / M_PI);
+    assert_int_equal(write(fd, line, strlen(line)), (ssize_t)strlen(line));
+    close(fd);
+    fp_params_t p;
+    fp_options_defaults(&p);
+    assert_int_equal(fp_options_apply(&p, "camera-chan", path, "test"), FP_OK);
+    assert_int_equal(fp_options_apply(&p, "chan-sensor", "36,24", "test"), FP_OK);
+    fp_frame_info_t info;
+    memset(&info, 0, sizeof info);
+    info.width = info.disp_w = 64;
+    info.height = info.disp_h = 36;
+    info.pixel_aspect = 1;
+    info.lens_mm = 50;
+    fp_camera_t c;
+    fp_msgbuf_t buf;
+    memset(&buf, 0, sizeof buf);
+    fp_msgbuf_t *prev = fp_msg_capture(&buf);
+    /* Frame 2 agrees (50 mm): no warning; frame 1 (30 mm) warns. */
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 2, &c), FP_OK);
+    assert_int_equal((int)buf.len, 0);
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    fp_msg_capture(prev);
+    assert_non_null(buf.text);
+    assert_non_null(strstr(buf.text, "t.exr: frame 1: camera file"));
+    assert_non_null(strstr(buf.text, "gives a 30.00 mm lens, the header's Lens says 50.00 mm"));
+    assert_null(strchr(strchr(buf.text, '\n') + 1, '\n'));   /* one line */
+    fp_msg_free(&buf);
+    fp_options_free(&p);
+    unlink(path);
+}
+
 static void test_sky(void **state)
 {
     (void)state;
@@ -405,6 +448,7 @@ int main(void)
         cmocka_unit_test(test_chan_blender_sensor),
         cmocka_unit_test(test_chan_range),
         cmocka_unit_test(test_camera_text),
+        cmocka_unit_test(test_chan_lens_warning),
         cmocka_unit_test(test_sky),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
