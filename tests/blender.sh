@@ -101,6 +101,23 @@ for v in auto vertical horizontal ortho; do
   grep -E "^(pixels|MISS)" "$T/out.txt" | diag
 done
 
+# The same file installed and enabled as an add-on (in a scripts folder of
+# the test's own), no -P: frame 2 of the auto scene carries its camera.
+check "installed as an add-on: frame 2 carries Blender's camera" sh -c '
+  BLENDER_USER_SCRIPTS="$3/addon/scripts" "$1" -b --factory-startup "$3/scene.blend" -S auto \
+  -noaudio --python-expr "
+import bpy
+bpy.ops.preferences.addon_install(filepath=\"$2\")
+bpy.ops.preferences.addon_enable(module=\"fogpipe_camera\")
+scene = bpy.context.scene
+scene.render.filepath = \"$3/addon/render.####\"
+scene.frame_start = scene.frame_end = 2
+bpy.ops.render.render(animation=True)
+" > "$3/addon.log" 2>&1 && "$4" --print-camera -i "$3/addon/render.0002.exr" --frames 2 --up z \
+  > "$3/addon/camera.txt" && awk -v mode=camera -f "$5/compare.awk" "$3/auto/truth.0002.txt" \
+  "$3/addon/camera.txt"' sh "$BLENDER" "$ADDON" "$T" "$FOGPIPE" "$TB"
+diag "$T/out.txt"
+
 # Blender's own .chan exporter, its defaults (Y up, rotation order XYZ, the
 # FOV column angle_y from the sensor height), on the auto camera without
 # its lens shift.
