@@ -151,7 +151,6 @@ static void cross3(const double a[3], const double b[3], double out[3])
 
 /* ------------------------------------------------------------ sources */
 
-
 /* Orientation and position from worldToCamera: C2W = inverse(W2C); a
  * camera-space point c maps to [c,1] * C2W. */
 static int from_world_to_camera(const double w2c[16], fp_camera_t *c)
@@ -177,7 +176,7 @@ static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_came
         return FP_ERR;
     fp_mat4_mul(c2w, w2n, c2n);
     /* A perspective projection's w grows with the depth z; an orthographic
-     * one's does not (fogpipe's view rays all start at the camera). */
+     * one's does not (its rays are parallel, fp_view_origin_at). */
     double wz = fabs(c2n[2 * 4 + 3]), wscale = fabs(c2n[0 * 4 + 3]) + fabs(c2n[1 * 4 + 3]) +
                                                   fabs(c2n[3 * 4 + 3]);
     /* (The header's matrices are single precision, 1e-5 is far above their
