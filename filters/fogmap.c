@@ -363,8 +363,10 @@ static void free_tables(fp_fog_tables_t *t)
 int fp_fogmap_frame(const fp_params_t *p, fp_cl_t *cl, fp_fogmap_stage_t *s, long frame,
                     const fp_view_t *v, fp_integrate_data_t *d)
 {
-    /* Angle of one pixel at the image center, from the NDC->camera map. */
-    double pixel = fabs(v->h[4] * v->ndc_scale[1]);
+    /* Angle of one pixel at the image center, from the NDC->camera map.  An
+     * orthographic pixel does not grow with distance: no level is dropped
+     * for its footprint (exact, as --lod-footprint 0). */
+    double pixel = v->ortho ? 0 : fabs(v->h[4] * v->ndc_scale[1]);
     d->fp[FP_F_FOOTPRINT] = p->fogmap.lod_footprint * pixel;
     fp_animate_transform(p, frame, d);
     if (!s)

@@ -169,9 +169,10 @@ int fp_integrate_pixels(const fp_integrate_data_t *d, const fp_view_t *v, const 
     for (size_t k = 0; k < npix; k++) {
         size_t i = pix ? (size_t)pix[k] : k;
         int x = (int)(i % (size_t)v->width), y = (int)(i / (size_t)v->width);
-        double dir[3], len;
+        double dir[3], len, o[3];
         fp_view_ray(v, x, y, depth[i], dir, &len);
-        double od = fp_integrate_optical_depth(d, v->origin, dir, len,
+        fp_view_origin_at(v, x, y, o);
+        double od = fp_integrate_optical_depth(d, o, dir, len,
                                                jitter ? fp_integrate_jitter(x, y) : 0);
         double tau = exp(-od);
         for (int c = 0; c < 3; c++)

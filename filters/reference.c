@@ -215,13 +215,14 @@ int fp_reference_grid_build(const fp_integrate_data_t *fog, const fp_scatter_dat
     /* Surfaces: the view rays' stretch in the fog. */
     for (int y = 0; y < v->height; y++)
         for (int x = 0; x < v->width; x++) {
-            double dir[3], len;
+            double dir[3], len, po[3];
             fp_view_ray(v, x, y, depth[(size_t)y * v->width + x], dir, &len);
             if (!isfinite(len))
                 continue;
-            double te = fp_ref_fog_end(fp, o[0], o[1], o[2], dir[0], dir[1], dir[2], len);
+            fp_view_origin_at(v, x, y, po);
+            double te = fp_ref_fog_end(fp, po[0], po[1], po[2], dir[0], dir[1], dir[2], len);
             if (te > 0) {
-                grow_box(lo, hi, o, dir, te);
+                grow_box(lo, hi, po, dir, te);
                 reach = fmax(reach, te);
             }
         }
@@ -241,13 +242,14 @@ int fp_reference_grid_build(const fp_integrate_data_t *fog, const fp_scatter_dat
     double sky = reach > 0 ? 2 * reach : base > 0 ? 4 / base : 100;
     for (int y = 0; y < v->height; y++)
         for (int x = 0; x < v->width; x++) {
-            double dir[3], len;
+            double dir[3], len, po[3];
             fp_view_ray(v, x, y, depth[(size_t)y * v->width + x], dir, &len);
             if (isfinite(len))
                 continue;
-            double te = fp_ref_fog_end(fp, o[0], o[1], o[2], dir[0], dir[1], dir[2], INFINITY);
+            fp_view_origin_at(v, x, y, po);
+            double te = fp_ref_fog_end(fp, po[0], po[1], po[2], dir[0], dir[1], dir[2], INFINITY);
             if (te > 0)
-                grow_box(lo, hi, o, dir, fmin(te, sky));
+                grow_box(lo, hi, po, dir, fmin(te, sky));
         }
     /* Toward the sun: the box swept half its diagonal along the sun's
      * direction. */
@@ -457,14 +459,15 @@ static void *c_entries(void *arg)
         for (size_t e = e0; e < e0 + chunk && e < job->npix; e++) {
             size_t i = job->pix ? (size_t)job->pix[e] : e;
             int x = (int)(i % (size_t)v->width), y = (int)(i / (size_t)v->width);
-            double dir[3], len, sum[4] = { 0, 0, 0, 0 }, sq[4] = { 0, 0, 0, 0 };
+            double dir[3], len, sum[4] = { 0, 0, 0, 0 }, sq[4] = { 0, 0, 0, 0 }, o[3];
             fp_view_ray(v, x, y, job->depth[i], dir, &len);
+            fp_view_origin_at(v, x, y, o);
             for (int s = 0; s < spp; s++) {
                 double S[3];
                 double tau = fp_ref_sample(job->fog->fp, TABLES(t), job->lt, smap, job->view,
                                            job->depth, v->width, v->height, job->g->rp, grid,
-                                           seed, (uint32_t)i, (uint32_t)s, v->origin[0],
-                                           v->origin[1], v->origin[2], dir[0], dir[1], dir[2],
+                                           seed, (uint32_t)i, (uint32_t)s, o[0],
+                                           o[1], o[2], dir[0], dir[1], dir[2],
                                            len, S);
                 for (int c = 0; c < 3; c++) {
                     sum[c] += S[c];

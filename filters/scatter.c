@@ -385,27 +385,28 @@ static void grid_bounds(fp_scatter_data_t *d, const fp_integrate_data_t *fog, co
         lo[i] = hi[i] = v->origin[i];
     for (int y = 0; y < v->height; y += 8)
         for (int x = 0; x < v->width; x += 8) {
-            double dir[3], len, ta, tb;
+            double dir[3], len, ta, tb, o[3];
             fp_view_ray(v, x, y, depth[(size_t)y * v->width + x], dir, &len);
-            if (!fp_fog_span(fog->fp, v->origin[0], v->origin[1], v->origin[2], dir[0], dir[1],
+            fp_view_origin_at(v, x, y, o);
+            if (!fp_fog_span(fog->fp, o[0], o[1], o[2], dir[0], dir[1],
                              dir[2], len, &ta, &tb))
                 continue;
             if (isinf(tb)) {
                 /* Unbounded: as far as the integrator goes (its optical
                  * depth stop), found by doubling. */
-                double od0 = fp_fog_od(fog->fp, TABLES(fog->tables), v->origin[0], v->origin[1],
-                                       v->origin[2], dir[0], dir[1], dir[2], ta, 0);
+                double od0 = fp_fog_od(fog->fp, TABLES(fog->tables), o[0], o[1],
+                                       o[2], dir[0], dir[1], dir[2], ta, 0);
                 double step = 1;
                 for (int k = 0; k < 40 && step < fog->fp[FP_F_CAP]; k++, step *= 2)
-                    if (fp_fog_od(fog->fp, TABLES(fog->tables), v->origin[0], v->origin[1],
-                                  v->origin[2], dir[0], dir[1], dir[2], ta + step, 0) - od0 >=
+                    if (fp_fog_od(fog->fp, TABLES(fog->tables), o[0], o[1],
+                                  o[2], dir[0], dir[1], dir[2], ta + step, 0) - od0 >=
                         d->lt[FP_LT_OD_STOP])
                         break;
                 tb = ta + fmin(step, fog->fp[FP_F_CAP]);
             }
             for (int e = 0; e < 2; e++)
                 for (int i = 0; i < 3; i++) {
-                    double q = v->origin[i] + (e ? tb : ta) * dir[i];
+                    double q = o[i] + (e ? tb : ta) * dir[i];
                     lo[i] = fmin(lo[i], q);
                     hi[i] = fmax(hi[i], q);
                 }
@@ -542,9 +543,10 @@ int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
     for (size_t k = 0; k < npix; k++) {
         size_t i = pix ? (size_t)pix[k] : k;
         int x = (int)(i % (size_t)v->width), y = (int)(i / (size_t)v->width);
-        double dir[3], len, S[3];
+        double dir[3], len, S[3], o[3];
         fp_view_ray(v, x, y, depth[i], dir, &len);
-        double tau = fp_scatter_ray_at(d, fog, v, view, depth, v->origin, dir, len,
+        fp_view_origin_at(v, x, y, o);
+        double tau = fp_scatter_ray_at(d, fog, v, view, depth, o, dir, len,
                                        fp_interleave_offset(d->lt, x, y), S);
         for (int c = 0; c < 3; c++)
             out[4 * k + c] = (float)S[c];

@@ -25,17 +25,22 @@ inline int fp_is_sky(__constant const float *view, float depth)
 }
 
 /* Unit direction (fog space) and length of the view ray of data-window
- * pixel (x, y); len = INFINITY for sky.  As fp_view_ray() in C. */
+ * pixel (x, y); len = INFINITY for sky.  As fp_view_ray() in C: an
+ * orthographic ray runs along the view axis, its depth the distance from
+ * the camera's plane. */
 inline float3 fp_view_ray(__constant const float *view, int x, int y, float depth,
                           float *len)
 {
     __constant const float *h = view + FP_VIEW_H;
     __constant const float *m = view + FP_VIEW_M;
-    float nx = ((float)x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
-    float ny = ((float)y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
-    float cw = h[6] * nx + h[7] * ny + h[8];
-    float cx = (h[0] * nx + h[1] * ny + h[2]) / cw;
-    float cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    float cx = 0.0f, cy = 0.0f;
+    if (view[FP_VIEW_ORTHO] == 0.0f) {
+        float nx = ((float)x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
+        float ny = ((float)y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
+        float cw = h[6] * nx + h[7] * ny + h[8];
+        cx = (h[0] * nx + h[1] * ny + h[2]) / cw;
+        cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    }
     float3 d = (float3)(m[0] * cx + m[1] * cy + m[2],
                         m[3] * cx + m[4] * cy + m[5],
                         m[6] * cx + m[7] * cy + m[8]);
@@ -55,9 +60,22 @@ inline float3 fp_view_ray(__constant const float *view, int x, int y, float dept
     return d / l;
 }
 
-inline float3 fp_view_origin(__constant const float *view)
+/* Where the view ray of pixel (x, y) starts (fog space): the camera, or
+ * for an orthographic camera the pixel's point on the camera's plane.  As
+ * fp_view_origin_at() in C. */
+inline float3 fp_view_origin_at(__constant const float *view, int x, int y)
 {
-    return (float3)(view[0], view[1], view[2]);
+    float3 o = (float3)(view[0], view[1], view[2]);
+    if (view[FP_VIEW_ORTHO] == 0.0f)
+        return o;
+    __constant const float *h = view + FP_VIEW_H;
+    __constant const float *m = view + FP_VIEW_M;
+    float nx = ((float)x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
+    float ny = ((float)y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
+    float cw = h[6] * nx + h[7] * ny + h[8];
+    float px = (h[0] * nx + h[1] * ny + h[2]) / cw;
+    float py = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    return o + (float3)(m[0] * px + m[1] * py, m[3] * px + m[4] * py, m[6] * px + m[7] * py);
 }
 
 /* The pixel (x, y) a work-item of a per-pixel fog kernel computes and the

@@ -30,7 +30,7 @@ __kernel void integrate_fog(__global const float *depth, __global float4 *fog_ou
     int i = y * width + x;
     float len;
     float3 dir = fp_view_ray(view, x, y, depth[i], &len);
-    float3 o = fp_view_origin(view);
+    float3 o = fp_view_origin_at(view, x, y);
     float jitter = fp[FP_F_JITTER] != 0.0f ? pixel_jitter(x, y) : 0.0f;
     float od = fp_fog_od(fp, lvi, lvf, coef, occ, o.x, o.y, o.z, dir.x, dir.y, dir.z, len, jitter);
     float tau = exp(-od);

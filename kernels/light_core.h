@@ -160,6 +160,9 @@ FP_FN fp_real fp_scene_z(FP_CONSTANT const float *view, FP_GLOBAL const float *d
     fp_real ny = ((fp_real)j + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
     fp_real cw = h[6] * nx + h[7] * ny + h[8];
     fp_real cx = (h[0] * nx + h[1] * ny + h[2]) / cw, cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    /* Orthographic: the depth is the distance from the camera's plane. */
+    if (view[FP_VIEW_ORTHO] != 0)
+        cx = cy = 0;
     fp_real zc = kind == 0 ? dv : kind == 1 ? dv / sqrt(cx * cx + cy * cy + 1) : 1 / dv;
     if (isinf(zc) || zc >= (fp_real)1e10 || dv >= view[FP_VIEW_FAR])
         return FP_INF;
@@ -186,7 +189,9 @@ FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const 
         fp_real cz = m[6] * qx + m[7] * qy + m[8] * qz;
         if (!(cz > 0))
             return 1;
-        fp_real ux = cx / cz, uy = cy / cz;
+        /* Orthographic: the camera's plane point, no division by depth. */
+        int ortho = view[FP_VIEW_ORTHO] != 0;
+        fp_real ux = ortho ? cx : cx / cz, uy = ortho ? cy : cy / cz;
         fp_real nw = h[6] * ux + h[7] * uy + h[8];
         fp_real nx = (h[0] * ux + h[1] * uy + h[2]) / nw, ny = (h[3] * ux + h[4] * uy + h[5]) / nw;
         /* + 0.5: pixel i's center is at i, its area [i - 0.5, i + 0.5). */

@@ -27,7 +27,7 @@ __kernel void reference_fog(__global const float *depth, __global float *acc,
     int x = i % width, y = i / width;
     float len;
     float3 dir = fp_view_ray(view, x, y, depth[i], &len);
-    float3 o = fp_view_origin(view);
+    float3 o = fp_view_origin_at(view, x, y);
     float sum[4] = { 0.0f, 0.0f, 0.0f, 0.0f }, sq[4] = { 0.0f, 0.0f, 0.0f, 0.0f };
     for (int s = s0; s < s1; s++) {
         float S[3];

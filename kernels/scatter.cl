@@ -21,7 +21,7 @@ __kernel void scatter_fog(__global const float *depth, __global float4 *fog_out,
     int i = y * width + x;
     float len;
     float3 dir = fp_view_ray(view, x, y, depth[i], &len);
-    float3 o = fp_view_origin(view);
+    float3 o = fp_view_origin_at(view, x, y);
     float S[3];
     float tau = fp_scatter_ray_core(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width,
                                     height, o.x, o.y, o.z, dir.x, dir.y, dir.z, len,

@@ -11,5 +11,6 @@
 #define FP_VIEW_NDC_OFFSET 23
 #define FP_VIEW_FAR 25
 #define FP_VIEW_DEPTH_KIND 26
+#define FP_VIEW_ORTHO 27      /* 1: orthographic (rays along the view axis from the camera's plane) */
 
 #endif

@@ -20,6 +20,21 @@ const fp_option_t fp_camera_options[] = {
       "vertical field of view in degrees (overrides the header's worldToNDC)", NULL, 0 },
     { "camera-chan", 0, FP_OPT_STRING, CAM(chan), 0, 0, NULL, 0, 0, NULL, "FILE",
       "Nuke .chan camera file: lines 'frame tx ty tz rx ry rz vfov'", NULL, 0 },
+    { "chan-order", 0, FP_OPT_ENUM, CAM(chan_order), 0, 0, "zxy", 0, 0,
+      "xyz|xzy|yxz|yzx|zxy|zyx", NULL,
+      "order the .chan's rotations are applied in (Nuke's default zxy; Blender's .chan "
+      "export writes xyz)", NULL, 0 },
+    { "chan-up", 0, FP_OPT_ENUM, CAM(chan_up), 0, 0, "y", 0, 0, "y|z", NULL,
+      "up axis of the .chan's coordinates, turned into --up's (Nuke: y; Blender's export "
+      "with 'Make Y up' off: z)", NULL, 0 },
+    { "chan-sensor", 0, FP_OPT_VEC, CAM(chan_sensor), 2, 2, NULL, 0.01, 10000, NULL, "W,H",
+      "sensor of the camera that wrote the .chan, in mm: its last column is then Blender's "
+      "angle_y (taken from the sensor height H whatever the fit), and the frame's field of "
+      "view comes from that lens, the sensor and --chan-fit", NULL, 0 },
+    { "chan-fit", 0, FP_OPT_ENUM, CAM(chan_fit), 0, 0, "auto", 0, 0,
+      "auto|horizontal|vertical", NULL,
+      "Blender's sensor fit for --chan-sensor (auto: the width W along the longer side)",
+      NULL, 0 },
     { "up", 0, FP_OPT_ENUM, CAM(up), 0, 0, "y", 0, 0, "y|z", NULL,
       "world up axis (z for Blender-style data)", NULL, 0 },
     { "depth-kind", 0, FP_OPT_ENUM, CAM(depth_kind), 0, 0, "planar", 0, 0,
@@ -160,12 +175,24 @@ static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_came
     if (fp_mat4_inverse(w2c, c2w))
         return FP_ERR;
     fp_mat4_mul(c2w, w2n, c2n);
+    /* A perspective projection's w grows with the depth z; an orthographic
+     * one's does not (its rays are parallel, fp_view_origin_at). */
+    double wz = fabs(c2n[2 * 4 + 3]), wscale = fabs(c2n[0 * 4 + 3]) + fabs(c2n[1 * 4 + 3]) +
+                                                  fabs(c2n[3 * 4 + 3]);
+    /* (The header's matrices are single precision, 1e-5 is far above their
+     * rounding and far below a real perspective's w.) */
+    c->ortho = !(wz > 1e-5 * wscale);
+    /* Orthographic: NDC must not change along the view axis (no oblique
+     * projection), and G maps the camera plane's (x, y, 1) (z = 0). */
+    if (c->ortho && (fabs(c2n[2 * 4 + 0]) + fabs(c2n[2 * 4 + 1]) >
+                     1e-5 * (fabs(c2n[0]) + fabs(c2n[5]))))
+        return FP_ERR;
     const int cols[3] = { 0, 1, 3 };
     for (int r = 0; r < 3; r++) {
         int k = cols[r];
         g[r * 3 + 0] = c2n[0 * 4 + k];
         g[r * 3 + 1] = c2n[1 * 4 + k];
-        g[r * 3 + 2] = c2n[2 * 4 + k] + c2n[3 * 4 + k];
+        g[r * 3 + 2] = (c->ortho ? 0 : c2n[2 * 4 + k]) + c2n[3 * 4 + k];
     }
     return fp_mat3_inverse(g, c->ndc_to_cam);
 }
@@ -178,20 +205,39 @@ static void from_vfov(double vfov_deg, const fp_frame_info_t *info, fp_camera_t 
     double sx = sy / aspect;
     double h[9] = { 1 / sx, 0, -0.5 / sx, 0, -1 / sy, 0.5 / sy, 0, 0, 1 };
     memcpy(c->ndc_to_cam, h, sizeof h);
+    c->ortho = 0;
 }
 
-/* Nuke's ZXY order: rotate about Z, then X, then Y (R = Ry Rx Rz), camera
- * looking down -Z; OpenEXR camera space looks down +z, so flip z. */
-static void from_rotation(const double rot[3], fp_camera_t *c)
+/* Rotation angles applied in `order` (FP_ORDER_*: Nuke's ZXY rotates about
+ * Z, then X, then Y, R = Ry Rx Rz), camera looking down -Z; OpenEXR camera
+ * space looks down +z, so flip z. */
+static void from_rotation(const double rot[3], int order, fp_camera_t *c)
 {
-    double rx[9], ry[9], rz[9], r[9];
-    rot_x(rot[0], rx);
-    rot_y(rot[1], ry);
-    rot_z(rot[2], rz);
-    mat3_mul(ry, rx, r);
-    mat3_mul(r, rz, r);
+    static const char axes[6][3] = { { 0, 1, 2 }, { 0, 2, 1 }, { 1, 0, 2 },
+                                     { 1, 2, 0 }, { 2, 0, 1 }, { 2, 1, 0 } };
+    double m[3][9], r[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+    rot_x(rot[0], m[0]);
+    rot_y(rot[1], m[1]);
+    rot_z(rot[2], m[2]);
+    /* Applied first = rightmost: R = M[third] M[second] M[first]. */
+    for (int k = 0; k < 3; k++)
+        mat3_mul(m[(int)axes[order][k]], r, r);
     const double flip[9] = { 1, 0, 0, 0, 1, 0, 0, 0, -1 };
     mat3_mul(r, flip, c->c2w);
+}
+
+/* A .chan's coordinates (up axis chan_up) turned into the world's (up). */
+static void chan_to_world(int chan_up, int up, fp_camera_t *c)
+{
+    if (chan_up == up)
+        return;
+    /* y up -> z up: (x, y, z) -> (x, -z, y); z up -> y up: (x, y, z) -> (x, z, -y)
+     * (Blender's exporter's 'Make Y up'). */
+    const double s = chan_up == FP_UP_Y ? 1 : -1;
+    const double m[9] = { 1, 0, 0, 0, 0, -s, 0, s, 0 };
+    double o[3] = { c->origin[0], -s * c->origin[2], s * c->origin[1] };
+    memcpy(c->origin, o, sizeof o);
+    mat3_mul(m, c->c2w, c->c2w);
 }
 
 static int from_target(const double target[3], int up, fp_camera_t *c,
@@ -216,38 +262,158 @@ static int from_target(const double target[3], int up, fp_camera_t *c,
     return FP_OK;
 }
 
-/* One line of a Nuke .chan file for `frame`: frame tx ty tz rx ry rz vfov. */
+/* The camera as text in a string attribute (Blender's stamp Note written by
+ * samples/blender/fogpipe_camera.py, whose Python writes this format):
+ *   fogpipe-camera 1 worldToCamera <16 numbers> worldToNDC <16 numbers>
+ * the two matrices as OpenEXR defines them (row-vector convention, row by
+ * row).  Blender can write only strings into an EXR header, so its render
+ * carries the standard matrices this way. */
+static int parse_camera_text(const fp_frame_info_t *info, const char *where_file, long frame,
+                             double w2c[16], double w2n[16])
+{
+    const char *s = strstr(info->camera_text, "fogpipe-camera");
+    const char *const names[2] = { "worldToCamera", "worldToNDC" };
+    double *mats[2] = { w2c, w2n };
+    char *end;
+    int ok = s != NULL;
+    long version = 0;
+    if (ok) {
+        s += strlen("fogpipe-camera");
+        version = strtol(s, &end, 10);
+        ok = end != s && version == 1;
+        s = end;
+    }
+    for (int m = 0; ok && m < 2; m++) {
+        while (*s == ' ' || *s == '\t' || *s == '\n' || *s == ';')
+            s++;
+        size_t n = strlen(names[m]);
+        if (strncmp(s, names[m], n) != 0) {
+            ok = 0;
+            break;
+        }
+        s += n;
+        for (int i = 0; ok && i < 16; i++) {
+            mats[m][i] = strtod(s, &end);
+            ok = end != s && isfinite(mats[m][i]);
+            s = end;
+        }
+    }
+    if (!ok)
+        return fp_error("%s: frame %ld: attribute '%s': expected 'fogpipe-camera 1 worldToCamera "
+                        "<16 numbers> worldToNDC <16 numbers>' (from samples/blender/"
+                        "fogpipe_camera.py)", where_file, frame, info->camera_text_attr);
+    return FP_OK;
+}
+
+/* One line of a Nuke .chan file for `frame`: frame tx ty tz rx ry rz vfov.
+ * Every line is checked as the camera options are (finite numbers, the
+ * rotations in --camera-rot's range, the FOV in --vfov's), so a bad file is
+ * refused whichever frame is asked for. */
 static int read_chan(const char *path, long frame, double v[7])
 {
+    static const char *const names[8] = { "frame", "tx", "ty", "tz", "rx", "ry", "rz",
+                                          "vertical FOV" };
+    const fp_option_t *rot_opt = fp_options_find("camera-rot");
+    const fp_option_t *fov_opt = fp_options_find("vfov");
     FILE *f = fopen(path, "r");
     if (!f)
         return fp_error("%s: cannot open camera file (%s)", path, strerror(errno));
     char line[1024];
     int lineno = 0, found = 0, rc = FP_OK;
-    while (fgets(line, sizeof line, f)) {
+    while (rc == FP_OK && fgets(line, sizeof line, f)) {
         lineno++;
         char *s = line;
         while (*s == ' ' || *s == '\t')
             s++;
-        if (*s == '#' || *s == '\n' || *s == 0)
+        if (*s == '#' || *s == '\n' || *s == '\r' || *s == 0)
             continue;
-        double fr, a[7];
-        int n = sscanf(s, "%lf %lf %lf %lf %lf %lf %lf %lf", &fr, &a[0], &a[1], &a[2],
-                       &a[3], &a[4], &a[5], &a[6]);
+        double a[8];
+        int n = sscanf(s, "%lf %lf %lf %lf %lf %lf %lf %lf", &a[0], &a[1], &a[2], &a[3],
+                       &a[4], &a[5], &a[6], &a[7]);
         if (n != 8) {
             rc = fp_error("%s:%d: expected 'frame tx ty tz rx ry rz vfov'", path, lineno);
             break;
         }
-        if (fabs(fr - (double)frame) < 1e-6) {
-            memcpy(v, a, sizeof a);
+        for (int i = 0; i < 8 && rc == FP_OK; i++) {
+            double lo = i >= 4 && i < 7 ? rot_opt->min : i == 7 ? fov_opt->min : -INFINITY;
+            double hi = i >= 4 && i < 7 ? rot_opt->max : i == 7 ? fov_opt->max : INFINITY;
+            if (!isfinite(a[i]))
+                rc = fp_error("%s:%d: %s is %g (expected a finite number)", path, lineno,
+                              names[i], a[i]);
+            else if (a[i] < lo || a[i] > hi)
+                rc = fp_error("%s:%d: %s %g is out of range (expected %g..%g, as --%s)", path,
+                              lineno, names[i], a[i], lo, hi, i == 7 ? "vfov" : "camera-rot");
+        }
+        if (rc == FP_OK && !found && fabs(a[0] - (double)frame) < 1e-6) {
+            memcpy(v, a + 1, 7 * sizeof(double));
             found = 1;
-            break;
         }
     }
+    if (rc == FP_OK && ferror(f))
+        rc = fp_error("%s: read error", path);
     fclose(f);
     if (rc == FP_OK && !found)
         rc = fp_error("%s: no line for frame %ld", path, frame);
     return rc;
+}
+
+/* The vertical field of view of a camera in degrees: the angle between the
+ * rays through the middles of the display window's top and bottom edges. */
+static double camera_vfov(const fp_camera_t *c)
+{
+    double d[2][3];
+    for (int k = 0; k < 2; k++) {
+        const double *h = c->ndc_to_cam;
+        double x = h[0] * 0.5 + h[1] * k + h[2];
+        double y = h[3] * 0.5 + h[4] * k + h[5];
+        double w = h[6] * 0.5 + h[7] * k + h[8];
+        double v[3] = { x / w, y / w, 1 };
+        normalize3(v);
+        memcpy(d[k], v, sizeof v);
+    }
+    return acos(fmin(1, d[0][0] * d[1][0] + d[0][1] * d[1][1] + d[0][2] * d[1][2])) * 180 / M_PI;
+}
+
+/* The frame's vertical FOV from a .chan written by Blender's exporter: its
+ * column is angle_y = 2 atan(H / 2 lens) whatever the sensor fit; Blender
+ * fits the sensor W (auto: along the longer side; horizontal: along the
+ * width) or H (vertical) to the frame.  *lens gets the focal length. */
+static double chan_blender_vfov(const fp_camera_params_t *cp, const fp_frame_info_t *info,
+                                double col, double *lens)
+{
+    double w = info->disp_w * (info->pixel_aspect > 0 ? info->pixel_aspect : 1);
+    double h = info->disp_h;
+    *lens = cp->chan_sensor[1] / (2 * tan(col * M_PI / 360));
+    int fit = cp->chan_fit;
+    double sensor = cp->chan_sensor[0];
+    if (fit == FP_FIT_AUTO)
+        fit = w >= h ? FP_FIT_HORIZONTAL : FP_FIT_VERTICAL;
+    else if (fit == FP_FIT_VERTICAL)
+        sensor = cp->chan_sensor[1];
+    double t = sensor / (2 * *lens);          /* tan(half the fitted angle) */
+    if (fit == FP_FIT_HORIZONTAL)
+        t *= h / w;
+    return 2 * atan(t) * 180 / M_PI;
+}
+
+/* Once a run: what a .chan says against what the frame's header says. */
+static int chan_warned;
+
+static void chan_check(const fp_camera_params_t *cp, const fp_frame_info_t *info,
+                       const char *where_file, long frame, double chan_vfov, double chan_lens,
+                       double header_vfov)
+{
+    char msg[400] = "";
+    if (header_vfov > 0 && fabs(header_vfov - chan_vfov) > 0.05)
+        snprintf(msg, sizeof msg, "its vertical FOV %.3f deg disagrees with the header's "
+                 "camera (%.3f deg)", chan_vfov, header_vfov);
+    else if (info->lens_mm > 0 && chan_lens > 0 && fabs(chan_lens / info->lens_mm - 1) > 0.005)
+        snprintf(msg, sizeof msg, "its FOV with the sensor height %g mm gives a %.2f mm lens, "
+                 "the header's Lens says %.2f mm", cp->chan_sensor[1], chan_lens, info->lens_mm);
+    if (!msg[0] || __atomic_exchange_n(&chan_warned, 1, __ATOMIC_RELAXED))
+        return;
+    fp_warn("%s: frame %ld: camera file %s: %s (Blender's .chan export: --chan-order xyz, "
+            "--chan-sensor W,H; see README 'From Nuke')", where_file, frame, cp->chan, msg);
 }
 
 int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
@@ -272,15 +438,38 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
             have_proj = 1;
             snprintf(src_proj, sizeof src_proj, "header worldToNDC");
         }
+    } else if (info->camera_text[0]) {
+        double w2c[16], w2n[16];
+        if (parse_camera_text(info, where_file, frame, w2c, w2n))
+            return FP_ERR;
+        if (from_world_to_camera(w2c, &c))
+            return fp_error("%s: frame %ld: attribute '%s': worldToCamera is not invertible",
+                            where_file, frame, info->camera_text_attr);
+        if (from_world_to_ndc(w2c, w2n, &c))
+            return fp_error("%s: frame %ld: attribute '%s': worldToNDC is not a usable "
+                            "projection", where_file, frame, info->camera_text_attr);
+        have_pose = have_proj = 1;
+        snprintf(src_pose, sizeof src_pose, "header %.64s (fogpipe-camera)", info->camera_text_attr);
+        snprintf(src_proj, sizeof src_proj, "header %.64s (fogpipe-camera)", info->camera_text_attr);
     }
 
     double chan[7];
     if (cp->chan) {
         if (read_chan(cp->chan, frame, chan))
             return FP_ERR;
+        double header_vfov = have_proj && !c.ortho ? camera_vfov(&c) : 0, lens = 0,
+               vfov = chan[6];
+        if (fp_options_given(p, "chan-sensor"))
+            vfov = chan_blender_vfov(cp, info, chan[6], &lens);
+        if (!(vfov >= 0.01 && vfov <= 179))
+            return fp_error("%s: frame %ld: camera file %s: --chan-sensor %g,%g gives a "
+                            "vertical FOV of %g deg (expected 0.01..179)", where_file, frame,
+                            cp->chan, cp->chan_sensor[0], cp->chan_sensor[1], vfov);
+        chan_check(cp, info, where_file, frame, vfov, lens, header_vfov);
         memcpy(c.origin, chan, 3 * sizeof(double));
-        from_rotation(chan + 3, &c);
-        from_vfov(chan[6], info, &c);
+        from_rotation(chan + 3, cp->chan_order, &c);
+        chan_to_world(cp->chan_up, cp->up, &c);
+        from_vfov(vfov, info, &c);
         have_pose = have_proj = 1;
         snprintf(src_pose, sizeof src_pose, "%.150s", cp->chan);
         snprintf(src_proj, sizeof src_proj, "%.150s", cp->chan);
@@ -303,7 +492,7 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
         if (!have_pose)
             return fp_usage_error("%s: frame %ld: --camera-rot needs a camera position "
                                   "(--camera-pos or the header's worldToCamera)", where_file, frame);
-        from_rotation(cp->rot, &c);
+        from_rotation(cp->rot, FP_ORDER_ZXY, &c);
         snprintf(src_pose, sizeof src_pose, "options");
     }
     if (fp_options_given(p, "vfov")) {
@@ -327,7 +516,9 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
 void fp_camera_print(FILE *out, const fp_camera_t *c, const fp_frame_info_t *info,
                      const char *where_file, long frame)
 {
-    /* Directions of the image center and edges, for the fields of view. */
+    /* The image center and the middles of its edges: directions for a
+     * perspective camera (the fields of view), points on the camera's plane
+     * for an orthographic one (the view's size). */
     double cc[3], top[3], bot[3], lft[3], rgt[3];
     double pts[5][2] = { { 0.5, 0.5 }, { 0.5, 0 }, { 0.5, 1 }, { 0, 0.5 }, { 1, 0.5 } };
     double *dirs[5] = { cc, top, bot, lft, rgt };
@@ -337,29 +528,39 @@ void fp_camera_print(FILE *out, const fp_camera_t *c, const fp_frame_info_t *inf
         double y = h[3] * pts[k][0] + h[4] * pts[k][1] + h[5];
         double w = h[6] * pts[k][0] + h[7] * pts[k][1] + h[8];
         double v[3] = { x / w, y / w, 1 };
-        normalize3(v);
+        if (!c->ortho)
+            normalize3(v);
         memcpy(dirs[k], v, sizeof v);
     }
-    double vfov = acos(fmin(1, top[0] * bot[0] + top[1] * bot[1] + top[2] * bot[2])) * 180 / M_PI;
-    double hfov = acos(fmin(1, lft[0] * rgt[0] + lft[1] * rgt[1] + lft[2] * rgt[2])) * 180 / M_PI;
-    double fw[3], up[3], rt[3];
+    double fw[3], up[3], rt[3], center[3];
+    const double axis[3] = { 0, 0, 1 }, *f = c->ortho ? axis : cc;
     for (int i = 0; i < 3; i++) {
-        fw[i] = c->c2w[i * 3] * cc[0] + c->c2w[i * 3 + 1] * cc[1] + c->c2w[i * 3 + 2] * cc[2];
+        fw[i] = c->c2w[i * 3] * f[0] + c->c2w[i * 3 + 1] * f[1] + c->c2w[i * 3 + 2] * f[2];
         rt[i] = c->c2w[i * 3];
         up[i] = c->c2w[i * 3 + 1];
+        center[i] = c->origin[i] + c->c2w[i * 3] * cc[0] + c->c2w[i * 3 + 1] * cc[1];
     }
     normalize3(fw);
     normalize3(up);
     normalize3(rt);
+    char proj[200];
+    if (c->ortho) {
+        snprintf(proj, sizeof proj, "orthographic view %.6g x %.6g centered at %.6g %.6g %.6g",
+                 fabs(rgt[0] - lft[0]), fabs(top[1] - bot[1]), center[0], center[1], center[2]);
+    } else {
+        double vfov = acos(fmin(1, top[0] * bot[0] + top[1] * bot[1] + top[2] * bot[2])) * 180 / M_PI;
+        double hfov = acos(fmin(1, lft[0] * rgt[0] + lft[1] * rgt[1] + lft[2] * rgt[2])) * 180 / M_PI;
+        snprintf(proj, sizeof proj, "vfov %.4f deg, hfov %.4f deg", vfov, hfov);
+    }
     fprintf(out,
             "%s: frame %ld: camera (%s)\n"
             "  position  %.6g %.6g %.6g\n"
             "  forward   %.6f %.6f %.6f\n"
             "  up        %.6f %.6f %.6f\n"
             "  right     %.6f %.6f %.6f\n"
-            "  vfov %.4f deg, hfov %.4f deg, display window %dx%d at (%d,%d), data window %dx%d at (%d,%d)\n",
+            "  %s, display window %dx%d at (%d,%d), data window %dx%d at (%d,%d)\n",
             where_file, frame, c->source, c->origin[0], c->origin[1], c->origin[2],
-            fw[0], fw[1], fw[2], up[0], up[1], up[2], rt[0], rt[1], rt[2], vfov, hfov,
+            fw[0], fw[1], fw[2], up[0], up[1], up[2], rt[0], rt[1], rt[2], proj,
             info->disp_w, info->disp_h, info->disp_x0, info->disp_y0, info->width,
             info->height, info->data_x0, info->data_y0);
 }
@@ -393,6 +594,7 @@ int fp_view_setup(const fp_camera_t *c, const fp_params_t *p,
     v.depth_kind = p->camera.depth_kind;
     v.width = info->width;
     v.height = info->height;
+    v.ortho = c->ortho;
     *out = v;
     return FP_OK;
 }
@@ -413,15 +615,25 @@ int fp_view_is_sky(const fp_view_t *v, float depth, int *suspicious)
     return isinf(z) || z >= 1e10 || z >= v->far;
 }
 
-void fp_view_ray(const fp_view_t *v, int x, int y, float depth, double dir[3], double *len)
+/* The camera-space point (perspective: direction (x/z, y/z, 1); orthographic:
+ * the point (x, y) on the camera's plane) of pixel (x, y). */
+static void view_cam(const fp_view_t *v, int x, int y, double c[2])
 {
     const double *h = v->h;
     double nx = (x + v->ndc_offset[0]) * v->ndc_scale[0];
     double ny = (y + v->ndc_offset[1]) * v->ndc_scale[1];
-    double cx = h[0] * nx + h[1] * ny + h[2];
-    double cy = h[3] * nx + h[4] * ny + h[5];
     double cw = h[6] * nx + h[7] * ny + h[8];
-    double c[3] = { cx / cw, cy / cw, 1 };
+    c[0] = (h[0] * nx + h[1] * ny + h[2]) / cw;
+    c[1] = (h[3] * nx + h[4] * ny + h[5]) / cw;
+}
+
+void fp_view_ray(const fp_view_t *v, int x, int y, float depth, double dir[3], double *len)
+{
+    double p[2];
+    view_cam(v, x, y, p);
+    /* An orthographic ray runs along the view axis; its depth is the
+     * distance from the camera's plane, planar or along the ray alike. */
+    double c[3] = { v->ortho ? 0 : p[0], v->ortho ? 0 : p[1], 1 };
     int suspicious;
     double scale;   /* camera-space point = c * scale */
     int sky = fp_view_is_sky(v, depth, &suspicious);
@@ -446,6 +658,17 @@ void fp_view_ray(const fp_view_t *v, int x, int y, float depth, double dir[3], d
     *len = sky ? INFINITY : l * scale;
 }
 
+void fp_view_origin_at(const fp_view_t *v, int x, int y, double o[3])
+{
+    memcpy(o, v->origin, 3 * sizeof(double));
+    if (!v->ortho)
+        return;
+    double p[2];
+    view_cam(v, x, y, p);
+    for (int i = 0; i < 3; i++)
+        o[i] += v->m[i * 3] * p[0] + v->m[i * 3 + 1] * p[1];
+}
+
 void fp_view_pack(const fp_view_t *v, float out[FP_VIEW_FLOATS])
 {
     memset(out, 0, FP_VIEW_FLOATS * sizeof(float));
@@ -461,4 +684,5 @@ void fp_view_pack(const fp_view_t *v, float out[FP_VIEW_FLOATS])
     out[24] = (float)v->ndc_offset[1];
     out[25] = (float)v->far;
     out[26] = (float)v->depth_kind;
+    out[27] = (float)v->ortho;
 }

@@ -15,7 +15,10 @@
 typedef struct fp_camera_t {
     double origin[3];      /* world position */
     double c2w[9];         /* row-major 3x3: world vector = c2w * camera vector */
-    double ndc_to_cam[9];  /* (x/z, y/z, 1) ~ ndc_to_cam * (nx, ny, 1) */
+    double ndc_to_cam[9];  /* (x/z, y/z, 1) ~ ndc_to_cam * (nx, ny, 1); orthographic:
+                              (x, y, 1) ~ ndc_to_cam * (nx, ny, 1) */
+    int ortho;             /* orthographic: the ray of NDC (nx, ny) starts at the camera-space
+                              point (x, y, 0) and runs along +z */
     char source[512];      /* what it came from, for --print-camera */
 } fp_camera_t;
 
@@ -38,6 +41,7 @@ typedef struct fp_view_t {
     double far;            /* depth beyond this is sky */
     int depth_kind;        /* FP_DEPTH_* */
     int width, height;     /* data window size */
+    int ortho;             /* orthographic: rays start on the camera's plane (fp_view_origin_at) */
 } fp_view_t;
 
 void fp_world_to_fog(int up, const double w[3], double f[3]);
@@ -53,6 +57,9 @@ int fp_view_is_sky(const fp_view_t *v, float depth, int *suspicious);
  * unit direction in fog space and length (INFINITY for sky). */
 void fp_view_ray(const fp_view_t *v, int x, int y, float depth,
                  double dir[3], double *len);
+/* Where that ray starts, fog space: the camera, or for an orthographic
+ * camera the pixel's point on the camera's plane. */
+void fp_view_origin_at(const fp_view_t *v, int x, int y, double o[3]);
 
 /* Layout of the view for kernels (kernels/fp_common.h, FP_VIEW_*). */
 #define FP_VIEW_FLOATS 32

@@ -723,6 +723,40 @@ static void read_matrix(fp_frame_t *f, const char *name, int *has, double m[16])
     f->io.msg[0] = '\0'; /* a missing attribute is not an error */
 }
 
+/* String attributes that describe the camera without OpenEXR's matrices:
+ * "fogpipe-camera ..." text (Blender's stamp Note written by
+ * samples/blender/fogpipe_camera.py) and Blender's stamp "Lens". */
+static void read_camera_text(fp_frame_t *f, fp_frame_info_t *in)
+{
+    for (int p = 0; p < f->num_parts; ++p) {
+        int32_t n = 0;
+        if (exr_get_attribute_count(f->ctx, p, &n) != EXR_ERR_SUCCESS)
+            continue;
+        for (int32_t i = 0; i < n; ++i) {
+            const exr_attribute_t *a = NULL;
+            if (exr_get_attribute_by_index(f->ctx, p, EXR_ATTR_LIST_FILE_ORDER, i, &a) !=
+                    EXR_ERR_SUCCESS || !a || a->type != EXR_ATTR_STRING || !a->string ||
+                !a->string->str)
+                continue;
+            int len = a->string->length;
+            char v[sizeof in->camera_text];
+            if (len <= 0 || len >= (int) sizeof v)
+                continue;
+            memcpy(v, a->string->str, (size_t) len);
+            v[len] = '\0';
+            if (!in->camera_text[0] && strstr(v, "fogpipe-camera")) {
+                memcpy(in->camera_text, v, (size_t) len + 1);
+                snprintf(in->camera_text_attr, sizeof in->camera_text_attr, "%s", a->name);
+            } else if (in->lens_mm == 0 && strcmp(a->name, "Lens") == 0) {
+                double mm = strtod(v, NULL);
+                if (mm > 0 && mm < 1e6)
+                    in->lens_mm = mm;
+            }
+        }
+    }
+    f->io.msg[0] = '\0';
+}
+
 int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
                        long frame, const fp_exr_select_t *sel,
                        fp_frame_t **out)
@@ -867,6 +901,7 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
     f->io.msg[0] = '\0';
     read_matrix(f, "worldToCamera", &in->has_world_to_camera, in->world_to_camera);
     read_matrix(f, "worldToNDC", &in->has_world_to_ndc, in->world_to_ndc);
+    read_camera_text(f, in);
     exr_attr_chromaticities_t chr;
     if (exr_attr_get_chromaticities(f->ctx, f->main_part, "chromaticities", &chr) ==
         EXR_ERR_SUCCESS) {

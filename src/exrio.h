@@ -49,6 +49,15 @@ typedef struct fp_frame_info_t {
      * blue x,y, white x,y (what primaries the RGB values are in). */
     int has_chromaticities;
     float chromaticities[8];
+    /* The value of a string attribute holding "fogpipe-camera ..." (what
+     * samples/blender/fogpipe_camera.py puts in Blender's stamp Note: the
+     * camera as worldToCamera and worldToNDC in text), and that attribute's
+     * name; "" if none.  camera.c parses it. */
+    char camera_text[1024];
+    char camera_text_attr[256];
+    /* The focal length in mm from a "Lens" attribute (Blender's stamp, "50.00
+     * mm"), 0 if none: checked against a .chan file's field of view. */
+    double lens_mm;
 } fp_frame_info_t;
 
 /* Decode an EXR image held in memory.  Takes ownership of `buf` (from

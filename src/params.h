@@ -10,6 +10,10 @@
 
 enum { FP_DEPTH_PLANAR = 0, FP_DEPTH_RADIAL = 1, FP_DEPTH_INVERSE = 2 };
 enum { FP_UP_Y = 0, FP_UP_Z = 1 };
+/* Rotation orders, named by the axes in the order they are applied (the
+ * choices of --chan-order, in this order). */
+enum { FP_ORDER_XYZ, FP_ORDER_XZY, FP_ORDER_YXZ, FP_ORDER_YZX, FP_ORDER_ZXY, FP_ORDER_ZYX };
+enum { FP_FIT_AUTO = 0, FP_FIT_HORIZONTAL = 1, FP_FIT_VERTICAL = 2 };
 
 typedef struct fp_io_params_t {
     char *input;          /* pattern, file, or "-" for stdin */
@@ -34,6 +38,10 @@ typedef struct fp_camera_params_t {
     double rot[3];        /* degrees, applied Z, then X, then Y (Nuke's ZXY) */
     double vfov;          /* degrees */
     char *chan;           /* Nuke .chan file */
+    int chan_order;       /* FP_ORDER_*: the order .chan rotations are applied in */
+    int chan_up;          /* FP_UP_*: the up axis of the .chan's coordinates */
+    double chan_sensor[2];/* mm; given: the .chan's FOV is Blender's angle_y */
+    int chan_fit;         /* FP_FIT_*: Blender's sensor fit, with chan_sensor */
     int up;               /* FP_UP_Y / FP_UP_Z */
     int depth_kind;       /* FP_DEPTH_* */
     double far;           /* depth beyond this is sky */

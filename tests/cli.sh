@@ -115,6 +115,16 @@ check "--print-camera" sh -c '"$FOGPIPE" --print-camera -i "$1" --frames 1-2 > "
 printf '1 0 2 -10 0 180 0 45\n' > "$T/cam.chan"
 check "--camera-chan" sh -c '"$FOGPIPE" --print-camera -i "$1" --camera-chan "$2" | grep -Eq "forward +-?0.000000 -?0.000000 1.000000"' \
   sh "$S/scene.0001.exr" "$T/cam.chan"
+# A .chan is checked as the camera options are: one line naming file:line.
+printf '1 0 2 -10 0 180 0 45\n2 0 2 nan 0 180 0 45\n' > "$T/nan.chan"
+fails "--camera-chan with NaN" 1 "nan.chan:2: tz is nan \(expected a finite number\)" "$T/chan-nan.exr" \
+  "$FOGPIPE" -i "$S/scene.0001.exr" -o "$T/chan-nan.exr" --camera-chan "$T/nan.chan"
+printf '1 0 2 -10 0 180 0 0\n' > "$T/fov0.chan"
+fails "--camera-chan with a vertical FOV of 0" 1 \
+  "fov0.chan:1: vertical FOV 0 is out of range \(expected 0.01..179, as --vfov\)" "$T/chan-fov0.exr" \
+  "$FOGPIPE" -i "$S/scene.0001.exr" -o "$T/chan-fov0.exr" --camera-chan "$T/fov0.chan"
+fails "--chan-order that does not exist" 2 "--chan-order: unknown value 'xxy'" - \
+  "$FOGPIPE" --print-camera -i "$S/scene.0001.exr" --camera-chan "$T/cam.chan" --chan-order xxy
 
 # Presets: key = value lines; the command line wins.
 printf 'density = 0.5\nfog-color = 1,0,0\n' > "$T/look.preset"

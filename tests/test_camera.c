@@ -181,6 +181,244 @@ static void test_chan_and_errors(void **state)
     fp_options_free(&p);
 }
 
+/* A .chan file with `text`; resolve frame `frame` with extra options. */
+static int chan_camera(const char *text, const char *const *args, int nargs, int w, int h,
+                       long frame, fp_camera_t *c)
+{
+    char path[] = "/tmp/fp-chan-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    close(fd);
+    fp_params_t p;
+    fp_options_defaults(&p);
+    assert_int_equal(fp_options_apply(&p, "camera-chan", path, "test"), FP_OK);
+    for (int i = 0; i + 1 < nargs; i += 2)
+        assert_int_equal(fp_options_apply(&p, args[i], args[i + 1], "test"), FP_OK);
+    fp_frame_info_t info;
+    memset(&info, 0, sizeof info);
+    info.width = info.disp_w = w;
+    info.height = info.disp_h = h;
+    info.pixel_aspect = 1;
+    int rc = fp_camera_resolve(&p, &info, "t.exr", frame, c);
+    fp_options_free(&p);
+    unlink(path);
+    return rc;
+}
+
+/* Rotation by `deg` about axis 0/1/2, applied to the columns of m (m = R m). */
+static void rotate(int axis, double deg, double m[9])
+{
+    double c = cos(deg * M_PI / 180), s = sin(deg * M_PI / 180), r[9] = { 0 }, out[9];
+    int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    r[axis * 3 + axis] = 1;
+    r[a * 3 + a] = c;
+    r[a * 3 + b] = -s;
+    r[b * 3 + a] = s;
+    r[b * 3 + b] = c;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            out[i * 3 + j] = r[i * 3] * m[j] + r[i * 3 + 1] * m[3 + j] + r[i * 3 + 2] * m[6 + j];
+    memcpy(m, out, sizeof out);
+}
+
+static void test_chan_orders_and_up(void **state)
+{
+    (void)state;
+    const char *orders[6] = { "xyz", "xzy", "yxz", "yzx", "zxy", "zyx" };
+    const double rot[3] = { 30, -40, 55 };
+    for (int k = 0; k < 6; k++) {
+        const char *args[] = { "chan-order", orders[k] };
+        fp_camera_t c;
+        assert_int_equal(chan_camera("1 1 2 3 30 -40 55 40\n", args, 2, 40, 30, 1, &c), FP_OK);
+        /* The axes applied one after the other, the camera looking down -Z. */
+        double m[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+        for (int i = 0; i < 3; i++) {
+            int axis = orders[k][i] - 'x';
+            rotate(axis, rot[axis], m);
+        }
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                assert_double_equal(c.c2w[i * 3 + j], j == 2 ? -m[i * 3 + j] : m[i * 3 + j], 1e-12);
+    }
+    /* Blender's exporter's 'Make Y up': (x, y, z) -> (x, z, -y) and the
+     * rotation before the Euler angles.  The same camera written Z-up with
+     * --chan-up z, or Y-up with --chan-up y, is one camera with --up z. */
+    const char *zup[] = { "chan-order", "xyz", "chan-up", "z", "up", "z" };
+    const char *yup[] = { "chan-order", "xyz", "chan-up", "y", "up", "z" };
+    fp_camera_t a, b;
+    assert_int_equal(chan_camera("1 4 -5 3 70 0 35 40\n", zup, 6, 40, 30, 1, &a), FP_OK);
+    /* Y-up: position (4, 3, 5); rotation Rx(-90) * Rz(35) Rx(70) = Rz'... as XYZ Euler:
+     * the same world rotation expressed after the axis change, computed here. */
+    double m[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+    rotate(0, 70, m);
+    rotate(2, 35, m);
+    rotate(0, -90, m);
+    /* Euler XYZ angles of m (m = Rz Ry Rx): ry = -asin(m20), rx = atan2(m21, m22),
+     * rz = atan2(m10, m00). */
+    double ry = -asin(m[6]) * 180 / M_PI, rx = atan2(m[7], m[8]) * 180 / M_PI,
+           rz = atan2(m[3], m[0]) * 180 / M_PI;
+    char line[200];
+    snprintf(line, sizeof line, "1 4 3 5 %.17g %.17g %.17g 40\n", rx, ry, rz);
+    assert_int_equal(chan_camera(line, yup, 6, 40, 30, 1, &b), FP_OK);
+    for (int i = 0; i < 3; i++)
+        assert_double_equal(a.origin[i], b.origin[i], 1e-12);
+    for (int i = 0; i < 9; i++)
+        assert_double_equal(a.c2w[i], b.c2w[i], 1e-12);
+}
+
+/* The vertical FOV of a resolved camera (rays through the middles of the
+ * top and bottom edges). */
+static double vfov_of(const fp_camera_t *c)
+{
+    const double *h = c->ndc_to_cam;
+    double y0 = (h[3] * 0.5 + h[5]) / (h[6] * 0.5 + h[8]);
+    double y1 = (h[3] * 0.5 + h[4] + h[5]) / (h[6] * 0.5 + h[7] + h[8]);
+    return (atan(fabs(y0)) + atan(fabs(y1))) * 180 / M_PI;
+}
+
+static void test_chan_blender_sensor(void **state)
+{
+    (void)state;
+    fp_camera_t c;
+    /* Blender's default 36 x 24 mm sensor, a 30 mm lens, 1920x1080: the
+     * exporter writes angle_y = 2 atan(12 / 30) = 43.6 deg; the frame's
+     * vertical FOV is 2 atan(18 * 1080 / 1920 / 30) = 37.3 deg. */
+    char line[100];
+    snprintf(line, sizeof line, "1 0 0 0 0 0 0 %.17g\n", 2 * atan(12.0 / 30) * 180 / M_PI);
+    assert_int_equal(chan_camera(line, NULL, 0, 1920, 1080, 1, &c), FP_OK);
+    assert_double_equal(vfov_of(&c), 43.6028, 1e-4);
+    const char *auto_fit[] = { "chan-sensor", "36,24" };
+    assert_int_equal(chan_camera(line, auto_fit, 2, 1920, 1080, 1, &c), FP_OK);
+    assert_double_equal(vfov_of(&c), 2 * atan(18.0 * 1080 / 1920 / 30) * 180 / M_PI, 1e-9);
+    /* Portrait with auto: the width W along the height. */
+    assert_int_equal(chan_camera(line, auto_fit, 2, 1080, 1920, 1, &c), FP_OK);
+    assert_double_equal(vfov_of(&c), 2 * atan(18.0 / 30) * 180 / M_PI, 1e-9);
+    const char *vert[] = { "chan-sensor", "36,24", "chan-fit", "vertical" };
+    assert_int_equal(chan_camera(line, vert, 4, 1920, 1080, 1, &c), FP_OK);
+    assert_double_equal(vfov_of(&c), 2 * atan(12.0 / 30) * 180 / M_PI, 1e-9);
+    const char *horiz[] = { "chan-sensor", "36,24", "chan-fit", "horizontal" };
+    assert_int_equal(chan_camera(line, horiz, 4, 1080, 1920, 1, &c), FP_OK);
+    assert_double_equal(vfov_of(&c), 2 * atan(18.0 * 1920 / 1080 / 30) * 180 / M_PI, 1e-9);
+}
+
+static void test_chan_range(void **state)
+{
+    (void)state;
+    fp_camera_t c;
+    const char *bad[] = { "1 0 0 0 0 0 0 0\n", "1 0 0 0 0 0 0 179.5\n", "1 nan 0 0 0 0 0 40\n",
+                          "1 0 0 0 0 inf 0 40\n", "1 0 0 0 0 0 0 40\n2 0 0 0 0 0 0 nan\n",
+                          "1 0 0 0 400000 0 0 40\n", "1 0 0 0 0 0 40\n" };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        assert_int_not_equal(chan_camera(bad[i], NULL, 0, 40, 30, 1, &c), FP_OK);
+    assert_int_equal(chan_camera("# comment\n\n1 0 0 0 0 0 0 0.01\n", NULL, 0, 40, 30, 1, &c),
+                     FP_OK);
+}
+
+static void test_camera_text(void **state)
+{
+    (void)state;
+    fp_params_t p;
+    fp_options_defaults(&p);
+    fp_frame_info_t info;
+    memset(&info, 0, sizeof info);
+    info.width = info.disp_w = 40;
+    info.height = info.disp_h = 30;
+    info.pixel_aspect = 1;
+    snprintf(info.camera_text_attr, sizeof info.camera_text_attr, "Note");
+    /* A camera at (1, 2, 3) looking down world +z, vfov 90 deg on 40x30
+     * (tan(vfov/2) = 1: NDC y = 0.5 - 0.5 y/z, x = 0.5 + 0.5 * 0.75 x/z). */
+    snprintf(info.camera_text, sizeof info.camera_text,
+             "shot 12 | fogpipe-camera 1 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 -1 -2 -3 1 "
+             "worldToNDC 0.375 0 0 0 0 -0.5 0 0 0.5 0.5 0 1 -1.875 -0.5 0 -3");
+    fp_camera_t c;
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    assert_double_equal(c.origin[0], 1, 1e-12);
+    assert_double_equal(c.origin[2], 3, 1e-12);
+    assert_double_equal(vfov_of(&c), 90, 1e-9);
+    assert_non_null(strstr(c.source, "Note (fogpipe-camera)"));
+    /* Orthographic, 4 x 3 scene units on 40x30 pixels, looking down +z from
+     * (1, 2, 3): NDC x = 0.5 + x / 4, y = 0.5 - y / 3.  Pixel (0, 0)'s ray
+     * starts at (1 - 1.95, 2 + 1.45, 3) and runs along +z for its depth,
+     * planar or radial alike. */
+    snprintf(info.camera_text, sizeof info.camera_text,
+             "fogpipe-camera 1 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 -1 -2 -3 1 "
+             "worldToNDC 0.25 0 0 0 0 -0.333333333333333333 0 0 0 0 1 0 0.25 1.16666666666666667 -3 1");
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    assert_true(c.ortho);
+    for (int kind = FP_DEPTH_PLANAR; kind <= FP_DEPTH_INVERSE; kind++) {
+        fp_view_t v;
+        p.camera.depth_kind = kind;
+        assert_int_equal(fp_view_setup(&c, &p, &info, &v), FP_OK);
+        double dir[3], len, o[3];
+        fp_view_ray(&v, 0, 0, kind == FP_DEPTH_INVERSE ? 0.2f : 5.0f, dir, &len);
+        fp_view_origin_at(&v, 0, 0, o);
+        assert_double_equal(o[0], 1 - 1.95, 1e-12);
+        assert_double_equal(o[1], 2 + 1.45, 1e-12);
+        assert_double_equal(o[2], 3, 1e-12);
+        assert_double_equal(dir[2], 1, 1e-12);
+        assert_double_equal(len, 5, 1e-6);
+    }
+    p.camera.depth_kind = FP_DEPTH_PLANAR;
+    /* Cut short, not finite, an unknown version, an oblique orthographic
+     * projection: refused. */
+    const char *bad[] = { "fogpipe-camera 1 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 -1 -2 -3 1",
+                          "fogpipe-camera 2 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 "
+                          "worldToNDC 1 0 0 0 0 1 0 0 0 0 1 1 0 0 0 0",
+                          "fogpipe-camera 1 worldToCamera nan 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 "
+                          "worldToNDC 1 0 0 0 0 1 0 0 0 0 1 1 0 0 0 0",
+                          "fogpipe-camera 1 worldToCamera 1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 "
+                          "worldToNDC 0.1 0 0 0 0 -0.1 0 0 0.05 0 1 0 0.5 0.5 0 1" };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        snprintf(info.camera_text, sizeof info.camera_text, "%s", bad[i]);
+        assert_int_not_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    }
+    fp_options_free(&p);
+}
+
+/* The header's Lens (Blender's stamp) against a .chan read with
+ * --chan-sensor: a 50 mm lens in the header, a .chan whose angle_y says
+ * 30 mm, one warning naming both; the warning comes once a run. */
+static void test_chan_lens_warning(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/fp-chan-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    char line[100];
+    snprintf(line, sizeof line, "1 0 0 0 0 0 0 %.17g\n2 0 0 0 0 0 0 %.17g\n",
+             2 * atan(12.0 / 30) * 180 / M_PI, 2 * atan(12.0 / 50) * 180 / M_PI);
+    assert_int_equal(write(fd, line, strlen(line)), (ssize_t)strlen(line));
+    close(fd);
+    fp_params_t p;
+    fp_options_defaults(&p);
+    assert_int_equal(fp_options_apply(&p, "camera-chan", path, "test"), FP_OK);
+    assert_int_equal(fp_options_apply(&p, "chan-sensor", "36,24", "test"), FP_OK);
+    fp_frame_info_t info;
+    memset(&info, 0, sizeof info);
+    info.width = info.disp_w = 64;
+    info.height = info.disp_h = 36;
+    info.pixel_aspect = 1;
+    info.lens_mm = 50;
+    fp_camera_t c;
+    fp_msgbuf_t buf;
+    memset(&buf, 0, sizeof buf);
+    fp_msgbuf_t *prev = fp_msg_capture(&buf);
+    /* Frame 2 agrees (50 mm): no warning; frame 1 (30 mm) warns. */
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 2, &c), FP_OK);
+    assert_int_equal((int)buf.len, 0);
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
+    fp_msg_capture(prev);
+    assert_non_null(buf.text);
+    assert_non_null(strstr(buf.text, "t.exr: frame 1: camera file"));
+    assert_non_null(strstr(buf.text, "gives a 30.00 mm lens, the header's Lens says 50.00 mm"));
+    assert_null(strchr(strchr(buf.text, '\n') + 1, '\n'));   /* one line */
+    fp_msg_free(&buf);
+    fp_options_free(&p);
+    unlink(path);
+}
+
 static void test_sky(void **state)
 {
     (void)state;
@@ -206,6 +444,11 @@ int main(void)
         cmocka_unit_test(test_header_rays),
         cmocka_unit_test(test_overrides),
         cmocka_unit_test(test_chan_and_errors),
+        cmocka_unit_test(test_chan_orders_and_up),
+        cmocka_unit_test(test_chan_blender_sensor),
+        cmocka_unit_test(test_chan_range),
+        cmocka_unit_test(test_camera_text),
+        cmocka_unit_test(test_chan_lens_warning),
         cmocka_unit_test(test_sky),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
