@@ -53,22 +53,26 @@ height_fog_lanes(__constant const float *restrict view, __constant const float *
     float16 nx = (x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
     float16 ny = (y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
     float16 cw = h[6] * nx + h[7] * ny + h[8];
-    float16 cx = (h[0] * nx + h[1] * ny + h[2]) / cw;
-    float16 cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    float16 inv_cw = 1.0f / cw;
+    float16 cx = (h[0] * nx + h[1] * ny + h[2]) * inv_cw;
+    float16 cy = (h[3] * nx + h[4] * ny + h[5]) * inv_cw;
     float16 dx = m[0] * cx + m[1] * cy + m[2];
     float16 dy = m[3] * cx + m[4] * cy + m[5];
     float16 dz = m[6] * cx + m[7] * cy + m[8];
     float16 l = sqrt(dx * dx + dy * dy + dz * dz);
-    /* fp_is_sky and the depth kinds (planar z, radial, inverse 1/z). */
+    /* fp_is_sky and the depth kinds (planar z, radial, inverse 1/z; the
+     * kind is the frame's, the same for every lane). */
     int kind = (int)view[FP_VIEW_DEPTH_KIND];
-    int inverse = kind == FP_DEPTH_INVERSE;
-    float16 recip = 1.0f / depth;
-    float16 z = inverse ? recip : depth;
-    int16 zero_inverse = inverse ? depth == 0.0f : (int16)0;
-    int16 sky = isnan(depth) | (depth < 0.0f) | zero_inverse | isinf(z) | (z >= 1e10f) |
-                (z >= view[FP_VIEW_FAR]);
-    float16 radial = depth / sqrt(cx * cx + cy * cy + 1.0f);
-    float16 scale = kind == FP_DEPTH_PLANAR ? depth : kind == FP_DEPTH_RADIAL ? radial : recip;
+    float16 z = depth, scale = depth;
+    int16 sky = isnan(depth) | (depth < 0.0f);
+    if (kind == FP_DEPTH_INVERSE) {
+        z = 1.0f / depth;
+        scale = z;
+        sky |= depth == 0.0f;
+    } else if (kind == FP_DEPTH_RADIAL) {
+        scale = depth / sqrt(cx * cx + cy * cy + 1.0f);
+    }
+    sky |= isinf(z) | (z >= 1e10f) | (z >= view[FP_VIEW_FAR]);
     float16 hit = l * scale;
     float16 len = sky ? (float16)INFINITY : hit;
     float16 inv_l = 1.0f / l;
