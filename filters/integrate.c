@@ -188,7 +188,9 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s)
     s->cl = cl;
     cl_program prog;
     if (fp_cl_program(cl, "integrate", "-cl-std=CL1.2", &prog) ||
-        fp_cl_kernel(prog, "integrate_fog", &s->kernel))
+        fp_cl_kernel(prog, "integrate_fog", &s->kernel) ||
+        fp_cl_kernel(prog, "integrate_height", &s->height) ||
+        fp_cl_kernel(prog, "integrate_height_list", &s->height_list))
         return FP_ERR;
     cl_int err;
     cl_context ctx = fp_cl_context(cl);
@@ -292,6 +294,44 @@ int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
     return fp_integrate_pixels_cl(s, d, v, depth, NULL, 0, fog);
 }
 
+static int upload_pixels(fp_integrate_cl_t *s, const int *pix, size_t npix);
+
+/* Fog without a fogmap: integrate_height(_list), 16 pixels per work-item
+ * (kernels/integrate.cl), with the arguments of integrate_fog. */
+static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix, size_t npix,
+                         cl_float4 color, float *fog)
+{
+    const size_t lanes = 16;   /* FP_SIMD in kernels/fog_core.h */
+    cl_int w = v->width, h = v->height;
+    if (!pix)
+        npix = 0;
+    if (npix > (size_t)w * h)
+        return fp_error("integrate_height: %zu pixels listed, the frame has %d", npix, w * h);
+    if (pix && npix == 0)
+        return FP_OK;
+    cl_kernel k = npix ? s->height_list : s->height;
+    cl_int cnpix = (cl_int)npix;
+    if (upload_pixels(s, pix, npix) || FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->fog) ||
+        FP_CL_ARG(k, 2, s->view) || FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) ||
+        FP_CL_ARG(k, 5, s->params) || FP_CL_ARG(k, 6, s->lvi) || FP_CL_ARG(k, 7, s->lvf) ||
+        FP_CL_ARG(k, 8, s->coef) || FP_CL_ARG(k, 9, s->occ) || FP_CL_ARG(k, 10, s->pix) ||
+        FP_CL_ARG(k, 11, cnpix) || FP_CL_ARG(k, 12, color))
+        return FP_ERR;
+    cl_command_queue q = fp_cl_queue(s->cl);
+    size_t global[2] = { ((size_t)w + lanes - 1) / lanes, (size_t)h };
+    if (npix) {
+        global[0] = (npix + lanes - 1) / lanes;
+        global[1] = 1;
+    }
+    if (fp_cl_check(clEnqueueNDRangeKernel(q, k, npix ? 1 : 2, NULL, global, NULL, 0, NULL, NULL),
+                    "integrate_height"))
+        return FP_ERR;
+    size_t nout = npix ? npix : (size_t)w * h;
+    return fp_cl_check(clEnqueueReadBuffer(q, s->fog, CL_TRUE, 0, nout * 4 * sizeof(float), fog, 0,
+                                           NULL, NULL),
+                       "read the fog layer");
+}
+
 int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                            const fp_view_t *v, const float *depth, const int *pix, size_t npix,
                            float *fog)
@@ -302,6 +342,8 @@ int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                           (float)d->fog_color[2], 0 } };
     if (FP_CL_ARG(s->kernel, 12, color))
         return FP_ERR;
+    if (d->fp[FP_F_HAS_MAP] == 0)
+        return launch_height(s, v, pix, npix, color, fog);
     return fp_integrate_cl_launch(s, s->kernel, v, pix, npix, fog, "integrate_fog");
 }
 
@@ -368,8 +410,10 @@ void fp_integrate_cl_release(fp_integrate_cl_t *s)
 {
     cl_mem *mems[] = { &s->depth, &s->fog, &s->view, &s->params, &s->lvi, &s->lvf, &s->coef,
                        &s->occ, &s->pix };
-    if (s->kernel)
-        clReleaseKernel(s->kernel);
+    cl_kernel kernels[] = { s->kernel, s->height, s->height_list };
+    for (size_t i = 0; i < FP_ARRAY_LEN(kernels); i++)
+        if (kernels[i])
+            clReleaseKernel(kernels[i]);
     for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)
         if (*mems[i])
             clReleaseMemObject(*mems[i]);

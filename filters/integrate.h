@@ -73,6 +73,7 @@ int fp_integrate_pixels(const fp_integrate_data_t *d, const fp_view_t *v, const 
 typedef struct fp_integrate_cl_t {
     fp_cl_t *cl;
     cl_kernel kernel;
+    cl_kernel height, height_list;        /* fog without a fogmap: branch-free, SIMD on PoCL */
     cl_mem depth, fog, view, params, lvi, lvf, coef, occ;
     cl_mem pix;                           /* the pixel list of a list launch */
     size_t capacity;      /* pixels the buffers hold */

@@ -37,3 +37,140 @@ __kernel void integrate_fog(__global const float *depth, __global float4 *fog_ou
     float3 s = (1.0f - tau) * fog_color.xyz;
     fog_out[out] = (float4)(s, tau);
 }
+
+/* Fog without a fogmap (the host's choice when FP_F_HAS_MAP is 0): the
+ * layer of integrate_fog for FP_SIMD (16) pixels per work-item, as float16
+ * lanes: the view ray of fp_view_ray with its sky test and depth kinds as
+ * selects, then fp_fog_od_nomap_bf (kernels/fog_core.h), all branch-free,
+ * so that the CPU device runs it as SIMD code. */
+inline __attribute__((always_inline)) void
+height_fog_lanes(__constant const float *restrict view, __constant const float *restrict fp,
+                 float16 x, float16 y, float16 depth, float4 color, float16 *r, float16 *g,
+                 float16 *b, float16 *t)
+{
+    __constant const float *h = view + FP_VIEW_H;
+    __constant const float *m = view + FP_VIEW_M;
+    float16 nx = (x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
+    float16 ny = (y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
+    float16 cw = h[6] * nx + h[7] * ny + h[8];
+    float16 inv_cw = 1.0f / cw;
+    float16 cx = (h[0] * nx + h[1] * ny + h[2]) * inv_cw;
+    float16 cy = (h[3] * nx + h[4] * ny + h[5]) * inv_cw;
+    float16 dx = m[0] * cx + m[1] * cy + m[2];
+    float16 dy = m[3] * cx + m[4] * cy + m[5];
+    float16 dz = m[6] * cx + m[7] * cy + m[8];
+    float16 l = sqrt(dx * dx + dy * dy + dz * dz);
+    /* fp_is_sky and the depth kinds (planar z, radial, inverse 1/z; the
+     * kind is the frame's, the same for every lane). */
+    int kind = (int)view[FP_VIEW_DEPTH_KIND];
+    float16 z = depth, scale = depth;
+    int16 sky = isnan(depth) | (depth < 0.0f);
+    if (kind == FP_DEPTH_INVERSE) {
+        z = 1.0f / depth;
+        scale = z;
+        sky |= depth == 0.0f;
+    } else if (kind == FP_DEPTH_RADIAL) {
+        scale = depth / sqrt(cx * cx + cy * cy + 1.0f);
+    }
+    sky |= isinf(z) | (z >= 1e10f) | (z >= view[FP_VIEW_FAR]);
+    float16 hit = l * scale;
+    float16 len = sky ? (float16)INFINITY : hit;
+    float16 inv_l = 1.0f / l;
+    float16 od = fp_fog_od_nomap_bf(fp, view[0], view[1], view[2], dx * inv_l, dy * inv_l,
+                                    dz * inv_l, len);
+    float16 tau = exp(-od);
+    *r = (1.0f - tau) * color.x;
+    *g = (1.0f - tau) * color.y;
+    *b = (1.0f - tau) * color.z;
+    *t = tau;
+}
+
+/* Lanes j .. j + 3 of (r, g, b, t) as four RGBA pixels. */
+#define FP_RGBA4(r, g, b, t, j0, j1, j2, j3)                                                   \
+    (float16)(r.s##j0, g.s##j0, b.s##j0, t.s##j0, r.s##j1, g.s##j1, b.s##j1, t.s##j1, r.s##j2, \
+              g.s##j2, b.s##j2, t.s##j2, r.s##j3, g.s##j3, b.s##j3, t.s##j3)
+
+/* Store n <= 16 pixels of lanes at out (RGBA each). */
+inline __attribute__((always_inline)) void
+height_fog_store(__global float *restrict out, int n, float16 r, float16 g, float16 b, float16 t)
+{
+    if (n == 16) {
+        vstore16(FP_RGBA4(r, g, b, t, 0, 1, 2, 3), 0, out);
+        vstore16(FP_RGBA4(r, g, b, t, 4, 5, 6, 7), 1, out);
+        vstore16(FP_RGBA4(r, g, b, t, 8, 9, a, b), 2, out);
+        vstore16(FP_RGBA4(r, g, b, t, c, d, e, f), 3, out);
+        return;
+    }
+    float lr[16], lg[16], lb[16], lt[16];
+    vstore16(r, 0, lr);
+    vstore16(g, 0, lg);
+    vstore16(b, 0, lb);
+    vstore16(t, 0, lt);
+    for (int k = 0; k < n; k++) {
+        out[4 * k] = lr[k];
+        out[4 * k + 1] = lg[k];
+        out[4 * k + 2] = lb[k];
+        out[4 * k + 3] = lt[k];
+    }
+}
+
+#define FP_LANES (float16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
+
+/* The whole frame: work-item (i, y) computes pixels 16 i .. 16 i + 15 of
+ * row y (those past the row's end repeat its last pixel, not stored). */
+__kernel void integrate_height(__global const float *restrict depth,
+                               __global float *restrict fog_out,
+                               __constant const float *restrict view, const int width,
+                               const int height, __constant const float *restrict fp,
+                               __constant const int *lvi, __constant const float *lvf,
+                               __global const float *coef, __global const uchar *occ,
+                               __global const int *pix, const int npix, const float4 fog_color)
+{
+    int x0 = (int)get_global_id(0) * FP_SIMD, y = get_global_id(1);
+    if (x0 >= width || y >= height)
+        return;
+    size_t row = (size_t)y * width;
+    int n = min(FP_SIMD, width - x0);
+    float16 d;
+    if (n == FP_SIMD) {
+        d = vload16(0, depth + row + x0);
+    } else {
+        float ld[16];
+        for (int k = 0; k < FP_SIMD; k++)
+            ld[k] = depth[row + x0 + min(k, n - 1)];
+        d = vload16(0, ld);
+    }
+    float16 r, g, b, t;
+    height_fog_lanes(view, fp, min((float)x0 + FP_LANES, (float)(width - 1)), (float16)((float)y),
+                     d, fog_color, &r, &g, &b, &t);
+    height_fog_store(fog_out + 4 * (row + x0), n, r, g, b, t);
+}
+
+/* The pixels pix[0 .. npix) (indices y * width + x), results in list
+ * order, 16 per work-item. */
+__kernel void integrate_height_list(__global const float *restrict depth,
+                                    __global float *restrict fog_out,
+                                    __constant const float *restrict view, const int width,
+                                    const int height, __constant const float *restrict fp,
+                                    __constant const int *lvi, __constant const float *lvf,
+                                    __global const float *coef, __global const uchar *occ,
+                                    __global const int *restrict pix, const int npix,
+                                    const float4 fog_color)
+{
+    int k0 = (int)get_global_id(0) * FP_SIMD;
+    if (k0 >= npix)
+        return;
+    int n = min(FP_SIMD, npix - k0);
+    float lx[16], ly[16], ld[16];
+    for (int k = 0; k < FP_SIMD; k++) {
+        int p = pix[k0 + min(k, n - 1)];
+        int y = p / width;
+        lx[k] = (float)(p - y * width);
+        ly[k] = (float)y;
+        ld[k] = depth[p];
+    }
+    float16 r, g, b, t;
+    height_fog_lanes(view, fp, vload16(0, lx), vload16(0, ly), vload16(0, ld), fog_color, &r, &g,
+                     &b, &t);
+    height_fog_store(fog_out + 4 * (size_t)k0, n, r, g, b, t);
+}

@@ -20,6 +20,7 @@ trap 'rm -rf "$tmp"' EXIT
   echo
   "$FP_BENCH_LIGHT" "$tmp/light/scene.0001.exr" "$tmp/light/shadow.0001.exr" "$tmp/light/fogmap.exr"
   echo
+  "$FP_BENCH_LOOKS" "$tmp/hd" "$tmp/looks" && echo   # issue 12: the looks against their goals
   # The accuracy of light in the fog: each line is printed by a test of
   # make check that fails when its figure leaves the stated tolerance.
   echo "### Accuracy of light in the fog (figures printed by the tests)"

@@ -1,0 +1,540 @@
+/* make bench: the looks of issue 12, each as the marginal fog cost of a
+ * fogpipe run (CPU ns per pixel, getrusage user+sys of the run minus the
+ * same run with --no-fog) with its error against the exact C reference and
+ * the issue's goal beside it (Markdown on stdout).  Figures, never
+ * pass/fail.
+ *   bench_looks HD_DIR SCRATCH_DIR
+ * HD_DIR: scene.0001.exr .. scene.0008.exr at 1920x1080 (tests/bench.sh's);
+ * SCRATCH_DIR is made here: smaller frames of the sample scene (FP_SCENE),
+ * the fogmaps, the outputs.  Environment: FOGPIPE, FP_SCENE, OIIOTOOL
+ * (default oiiotool), FP_SRCDIR (the presets; default .).
+ *
+ * Marginal cost: the one-time set-up of a run (loading the OpenCL driver,
+ * the programs, the fogmap's decomposition) is left out, as a long shot
+ * amortises it: cost = [fog(N frames) - fog(1 frame)] - [no-fog(N) -
+ * no-fog(1)], over the pixels of frames 2..N, each run the minimum CPU time
+ * of 3. */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/time.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "camera.h"
+#include "clrt.h"
+#include "exrio.h"
+#include "fogmap.h"
+#include "fp.h"
+#include "integrate.h"
+#include "options.h"
+#include "scatter.h"
+
+extern char **environ;
+
+#define REPS 3
+#define MAX_ARGS 64
+
+static const char *fogpipe_bin, *scene_bin, *oiiotool_bin, *scratch;
+
+/* Run argv (stdout and stderr to /dev/null); CPU seconds (user + sys of
+ * the process and its threads), or NAN when it failed. */
+static double run_cpu(char *const *argv)
+{
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+    pid_t pid;
+    int err = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (err) {
+        fprintf(stderr, "bench_looks: %s: cannot start (%s)\n", argv[0], strerror(err));
+        return NAN;
+    }
+    int status;
+    struct rusage ru;
+    if (wait4(pid, &status, 0, &ru) != pid || !WIFEXITED(status) || WEXITSTATUS(status)) {
+        fprintf(stderr, "bench_looks: failed:");
+        for (char *const *a = argv; *a; a++)
+            fprintf(stderr, " %s", *a);
+        fprintf(stderr, "\n");
+        return NAN;
+    }
+    return ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6 + ru.ru_stime.tv_sec +
+           ru.ru_stime.tv_usec * 1e-6;
+}
+
+/* A set of frames: DIR/scene.####.exr (and shadow.####.exr), N frames. */
+typedef struct set_t {
+    const char *name;
+    char dir[4096];
+    int width, height, frames;
+    double nofog[2];      /* min CPU s of --no-fog over 1 and N frames */
+} set_t;
+
+/* fogpipe's argv over frames 1..nframes of a set, with the look's options
+ * and any extra ones (NULL-terminated lists); --stats to stats if given. */
+static int build_argv(char **argv, char *buf, size_t bufsz, const set_t *s, int nframes,
+                      const char *const *opts, const char *const *extra, const char *stats)
+{
+    int n = 0;
+    size_t used = 0;
+#define PUT(str)                                                             \
+    do {                                                                     \
+        size_t len_ = strlen(str) + 1;                                       \
+        if (n + 1 >= MAX_ARGS || used + len_ > bufsz)                        \
+            return -1;                                                       \
+        memcpy(buf + used, str, len_);                                       \
+        argv[n++] = buf + used;                                              \
+        used += len_;                                                        \
+    } while (0)
+    char tmp[4200];
+    PUT(fogpipe_bin);
+    PUT("-q");
+    snprintf(tmp, sizeof tmp, "%s/scene.####.exr", s->dir);
+    PUT("-i");
+    PUT(tmp);
+    snprintf(tmp, sizeof tmp, "%s/out-%s/out.####.exr", scratch, s->name);
+    PUT("-o");
+    PUT(tmp);
+    snprintf(tmp, sizeof tmp, "1-%d", nframes);
+    PUT("--frames");
+    PUT(tmp);
+    if (stats) {
+        PUT("--stats");
+        PUT(stats);
+    }
+    for (const char *const *o = opts; o && *o; o++) {
+        if (strstr(*o, "{dir}")) {
+            const char *at = strstr(*o, "{dir}");
+            snprintf(tmp, sizeof tmp, "%.*s%s%s", (int)(at - *o), *o, s->dir, at + 5);
+            PUT(tmp);
+        } else if (strstr(*o, "{scratch}")) {
+            const char *at = strstr(*o, "{scratch}");
+            snprintf(tmp, sizeof tmp, "%.*s%s%s", (int)(at - *o), *o, scratch, at + 9);
+            PUT(tmp);
+        } else if (strstr(*o, "{src}")) {
+            const char *at = strstr(*o, "{src}");
+            const char *src = getenv("FP_SRCDIR") ? getenv("FP_SRCDIR") : ".";
+            snprintf(tmp, sizeof tmp, "%.*s%s%s", (int)(at - *o), *o, src, at + 5);
+            PUT(tmp);
+        } else {
+            PUT(*o);
+        }
+    }
+    for (const char *const *o = extra; o && *o; o++)
+        PUT(*o);
+#undef PUT
+    argv[n] = NULL;
+    return n;
+}
+
+static double fps_of(const char *stats)
+{
+    FILE *f = fopen(stats, "r");
+    char line[512];
+    double fps = NAN;
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, " \"fps\": %lf", &fps) == 1)
+            break;
+    if (f)
+        fclose(f);
+    return fps;
+}
+
+/* Minimum CPU seconds of REPS runs of fogpipe (and the best frames/s of
+ * --stats when fps is given). */
+static double min_cpu(const set_t *s, int nframes, const char *const *opts,
+                      const char *const *extra, double *fps)
+{
+    char *argv[MAX_ARGS], buf[32768], stats[4200];
+    snprintf(stats, sizeof stats, "%s/stats.json", scratch);
+    if (build_argv(argv, buf, sizeof buf, s, nframes, opts, extra, fps ? stats : NULL) < 0)
+        return NAN;
+    double best = INFINITY;
+    if (fps)
+        *fps = 0;
+    for (int r = 0; r < REPS; r++) {
+        double t = run_cpu(argv);
+        if (isnan(t))
+            return NAN;
+        best = fmin(best, t);
+        if (fps)
+            *fps = fmax(*fps, fps_of(stats));
+    }
+    return best;
+}
+
+static double px_per_frame(const set_t *s) { return (double)s->width * s->height; }
+
+/* Marginal ns per pixel of a look over frames 2..N of its set; io: options
+ * of both runs (NULL: none; the set's --no-fog runs are then shared). */
+static double marginal_ns(set_t *s, const char *const *opts, const char *const *io)
+{
+    const char *nofog[8] = { "--no-fog" };
+    for (int i = 0; io && io[i] && i < 6; i++)
+        nofog[i + 1] = io[i];
+    double n1, nn;
+    if (io || !(s->nofog[0] > 0)) {
+        n1 = min_cpu(s, 1, NULL, nofog, NULL);
+        nn = min_cpu(s, s->frames, NULL, nofog, NULL);
+        if (!io) {
+            s->nofog[0] = n1;
+            s->nofog[1] = nn;
+        }
+    } else {
+        n1 = s->nofog[0];
+        nn = s->nofog[1];
+    }
+    double one = min_cpu(s, 1, opts, io, NULL), all = min_cpu(s, s->frames, opts, io, NULL);
+    double fog = (all - one) - (nn - n1);
+    return fog / ((s->frames - 1) * px_per_frame(s)) * 1e9;
+}
+
+/* Error of a look's OpenCL fog layer against the exact C reference (the
+ * look's options with every fast path turned off) on every stride-th
+ * pixel of frame 1 of its set: max |dtau| and max |dS| relative to the
+ * reference's largest S. */
+typedef struct look_run_t {
+    fp_params_t p;
+    fp_integrate_data_t fog;
+    fp_scatter_data_t light;
+    fp_fogmap_stage_t fm;
+} look_run_t;
+
+static fp_cl_t *cl;
+static fp_integrate_cl_t icl;
+static fp_scatter_cl_t scl;
+
+static const char *const exact_opts[] = { "--integrator", "exact", "--self-shadow", "exact",
+                                          "--lod-mu", "1", "--lod-footprint", "0",
+                                          "--min-transmittance", "0", "--fog-resolution", "1",
+                                          NULL };
+
+typedef struct frame1_t {
+    fp_frame_t *frame;
+    fp_view_t view;
+    const float *depth;
+    int *pix;
+    size_t npix;
+} frame1_t;
+
+static int frame1_open(const set_t *s, size_t target, frame1_t *f)
+{
+    memset(f, 0, sizeof *f);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/scene.0001.exr", s->dir);
+    fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
+    fp_params_t p0;
+    fp_options_defaults(&p0);
+    fp_camera_t cam;
+    int rc = fp_exr_read_file(path, 1, &sel, &f->frame);
+    if (rc == FP_OK) {
+        const fp_frame_info_t *info = fp_frame_info(f->frame);
+        rc = fp_camera_resolve(&p0, info, path, 1, &cam);
+        if (rc == FP_OK)
+            rc = fp_view_setup(&cam, &p0, info, &f->view);
+    }
+    fp_options_free(&p0);
+    if (rc)
+        return rc;
+    f->depth = fp_frame_depth(f->frame);
+    size_t n = (size_t)f->view.width * f->view.height;
+    size_t stride = n / target > 1 ? n / target : 1;
+    if (stride > 1 && stride % 2 == 0)
+        stride++; /* odd: not one column of the frame */
+    f->npix = (n + stride - 1) / stride;
+    f->pix = malloc(f->npix * sizeof *f->pix);
+    if (!f->pix)
+        return fp_error("out of memory");
+    for (size_t k = 0; k < f->npix; k++)
+        f->pix[k] = (int)(k * stride);
+    return FP_OK;
+}
+
+static void frame1_close(frame1_t *f)
+{
+    if (f->frame)
+        fp_frame_free(f->frame);
+    free(f->pix);
+}
+
+static int look_open(const set_t *s, const frame1_t *f, const char *const *opts,
+                     const char *const *extra, look_run_t *l)
+{
+    char *argv[MAX_ARGS], buf[32768];
+    memset(l, 0, sizeof *l);
+    fp_options_defaults(&l->p);
+    int argc = build_argv(argv, buf, sizeof buf, s, 1, opts, extra, NULL);
+    int active;
+    if (argc < 0 || fp_options_parse(argc, argv, &l->p) || fp_integrate_commit(&l->p, &l->fog) ||
+        fp_scatter_commit(&l->p, &l->light) ||
+        fp_fogmap_commit(&l->p, cl, &l->fm, &l->fog, &active) ||
+        fp_fogmap_frame(&l->p, cl, &l->fm, 1, &f->view, &l->fog) ||
+        ((l->light.active) &&
+         fp_scatter_frame(&l->p, &l->light, &l->fog, &f->view, f->depth, 1)))
+        return FP_ERR;
+    return FP_OK;
+}
+
+static void look_close(look_run_t *l)
+{
+    fp_scatter_release(&l->light);
+    fp_fogmap_release(&l->fm);
+    fp_options_free(&l->p);
+}
+
+static int look_layer(look_run_t *l, const frame1_t *f, int use_cl, float *out)
+{
+    if (l->light.active)
+        return use_cl ? fp_scatter_pixels_cl(&scl, &icl, &l->light, &l->fog, &f->view, f->depth,
+                                             f->pix, f->npix, out)
+                      : fp_scatter_pixels(&l->light, &l->fog, &f->view, f->depth, f->pix,
+                                          f->npix, out);
+    return use_cl ? fp_integrate_pixels_cl(&icl, &l->fog, &f->view, f->depth, f->pix, f->npix, out)
+                  : fp_integrate_pixels(&l->fog, &f->view, f->depth, f->pix, f->npix, out);
+}
+
+typedef struct err_t {
+    double tau, s;
+} err_t;
+
+static err_t compare(const float *a, const float *ref, size_t n)
+{
+    double smax = 1e-30;
+    err_t e = { 0, 0 };
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++)
+            smax = fmax(smax, fabs((double)ref[4 * i + c]));
+    for (size_t i = 0; i < n; i++) {
+        for (int c = 0; c < 3; c++)
+            e.s = fmax(e.s, fabs((double)a[4 * i + c] - ref[4 * i + c]) / smax);
+        e.tau = fmax(e.tau, fabs((double)a[4 * i + 3] - ref[4 * i + 3]));
+    }
+    return e;
+}
+
+/* The look's layer (OpenCL, its own options) against the exact C
+ * reference; the reference's layer into ref when given. */
+static int look_error(const set_t *s, const frame1_t *f, const char *const *opts,
+                      const char *const *extra, err_t *e, float *ref_out)
+{
+    look_run_t l, r;
+    size_t n = f->npix;
+    float *got = malloc(n * 4 * sizeof *got), *ref = malloc(n * 4 * sizeof *ref);
+    int rc = !got || !ref ? fp_error("out of memory") : FP_OK;
+    if (rc == FP_OK && (rc = look_open(s, f, opts, extra, &l)) == FP_OK) {
+        rc = look_layer(&l, f, 1, got);
+        look_close(&l);
+    }
+    if (rc == FP_OK && (rc = look_open(s, f, opts, exact_opts, &r)) == FP_OK) {
+        rc = look_layer(&r, f, 0, ref);
+        look_close(&r);
+    }
+    if (rc == FP_OK) {
+        *e = compare(got, ref, n);
+        if (ref_out)
+            memcpy(ref_out, ref, n * 4 * sizeof *ref);
+    }
+    free(got);
+    free(ref);
+    return rc;
+}
+
+static int spawn_ok(char *const *argv) { return !isnan(run_cpu(argv)); }
+
+static void fmt_ns(char *buf, size_t n, double ns)
+{
+    if (isnan(ns))
+        snprintf(buf, n, "failed");
+    else if (ns >= 1000)
+        snprintf(buf, n, "%.2f us/px", ns / 1000);
+    else
+        snprintf(buf, n, "%.1f ns/px", ns);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 3) {
+        fprintf(stderr, "usage: bench_looks HD_DIR SCRATCH_DIR\n");
+        return 2;
+    }
+    setvbuf(stdout, NULL, _IOLBF, 0);
+    fogpipe_bin = getenv("FOGPIPE") ? getenv("FOGPIPE") : "./fogpipe";
+    scene_bin = getenv("FP_SCENE") ? getenv("FP_SCENE") : "./samples/fp-scene";
+    oiiotool_bin = getenv("OIIOTOOL") && *getenv("OIIOTOOL") ? getenv("OIIOTOOL") : "oiiotool";
+    scratch = argv[2];
+    if (mkdir(scratch, 0777) && errno != EEXIST) {
+        fprintf(stderr, "bench_looks: %s: cannot make the directory (%s)\n", scratch,
+                strerror(errno));
+        return 1;
+    }
+    set_t hd = { "hd", "", 1920, 1080, 8, { 0, 0 } };
+    set_t mid = { "mid", "", 480, 270, 2, { 0, 0 } };
+    set_t small = { "small", "", 160, 90, 2, { 0, 0 } };
+    snprintf(hd.dir, sizeof hd.dir, "%s", argv[1]);
+    snprintf(mid.dir, sizeof mid.dir, "%s/mid", scratch);
+    snprintf(small.dir, sizeof small.dir, "%s/small", scratch);
+    set_t *sets[] = { &hd, &mid, &small };
+    for (size_t k = 0; k < FP_ARRAY_LEN(sets); k++) {
+        char d[4200];
+        snprintf(d, sizeof d, "%s/out-%s", scratch, sets[k]->name);
+        if (mkdir(d, 0777) && errno != EEXIST) {
+            fprintf(stderr, "bench_looks: %s: cannot make the directory (%s)\n", d,
+                    strerror(errno));
+            return 1;
+        }
+    }
+    /* The smaller frames, with the sun's shadow maps. */
+    for (int k = 1; k < 3; k++) {
+        set_t *s = sets[k];
+        char w[16], h[16];
+        snprintf(w, sizeof w, "%d", s->width);
+        snprintf(h, sizeof h, "%d", s->height);
+        char *a[] = { (char *)scene_bin, "-o", s->dir, "--width", w, "--height", h, "--frames",
+                      "1-2", NULL };
+        if (!spawn_ok(a))
+            return 1;
+    }
+    /* The fogmaps: the sample's 64x64, and the same fog at 4096x4096
+     * (bilinear upsampling, the surface the linear basis makes of the
+     * 64x64 map), decomposed into 9 levels so that its coarsest level is
+     * the 64x64 map's with 3 (8x8). */
+    char fog64[4200], fog4096[4200];
+    snprintf(fog64, sizeof fog64, "%s/fogmap.exr", mid.dir);
+    snprintf(fog4096, sizeof fog4096, "%s/fog4096.exr", scratch);
+    {
+        char *a[] = { (char *)oiiotool_bin, fog64, "--resize:filter=triangle", "4096x4096",
+                      "-d", "float", "-o", fog4096, NULL };
+        if (!spawn_ok(a))
+            return 1;
+    }
+    if (fp_cl_open(NULL, &cl) || fp_integrate_cl_init(cl, &icl) || fp_scatter_cl_init(cl, &scl))
+        return 1;
+
+    const char *const height_fog[] = { NULL };
+    const char *const uncompressed[] = { "--compression", "none", NULL };
+    const char *const fogmap64[] = { "--fogmap", "{scratch}/mid/fogmap.exr", "--fog-rect",
+                                     "-60,-20,60,160", "--density", "0.1", "--height", "0,5",
+                                     "--basis", "linear", "--levels", "3", NULL };
+    const char *const lamps[] = { "--preset", "{src}/samples/presets/night-street-lamps.preset",
+                                  NULL };
+    const char *const shafts[] = { "--preset", "{src}/samples/presets/low-sun-shafts.preset",
+                                   "--shadow-map", "{dir}/shadow.####.exr", "--fogmap",
+                                   "{scratch}/mid/fogmap.exr", "--fog-rect", "-60,-20,60,160",
+                                   "--basis", "linear", "--levels", "3", NULL };
+    const char *const fogmap4096[] = { "--fogmap", "{scratch}/fog4096.exr", "--fog-rect",
+                                       "-60,-20,60,160", "--density", "0.1", "--height", "0,5",
+                                       "--basis", "linear", "--levels", "9", NULL };
+
+    printf("## Issue 12: the looks, marginal fog cost against the goals\n\n");
+    printf("Marginal CPU time per pixel (getrusage user+sys of a fogpipe run minus the same run "
+           "with `--no-fog`, minimum of %d runs each), the run's one-time set-up (OpenCL driver, "
+           "programs, fogmap decomposition) left out: [fog(N frames) - fog(1)] - [no-fog(N) - "
+           "no-fog(1)] over the pixels of frames 2..N. Error: the OpenCL fog layer against the "
+           "exact C double reference (every fast path off) on about 4000 pixels of frame 1: max "
+           "|dtau| and max |dS| relative to the largest S. Device: %s.\n\n",
+           REPS, fp_cl_device_label(cl));
+    printf("| look | frames | marginal CPU | max \\|dtau\\| | max dS | goal |\n"
+           "|---|---|---|---|---|---|\n");
+    struct {
+        const char *name;
+        set_t *set;
+        const char *const *opts;
+        const char *goal;
+        const char *const *io;
+        double ns;
+    } looks[] = {
+        { "height fog (closed form)", &hd, height_fog, "<= 20 ns/px", NULL, NAN },
+        { "height fog, both runs writing uncompressed EXRs (the fog without the encoder's "
+          "data-dependent cost)", &hd, height_fog, "-", uncompressed, NAN },
+        { "fogmap 64x64 linear, 3 levels, exact", &mid, fogmap64, "<= 1 us/px", NULL, NAN },
+        { "night-street-lamps preset (2 points + spot)", &mid, lamps, "<= 3 us/px", NULL, NAN },
+        { "low-sun-shafts + fogmap 64x64, 3 levels (default self-shadowing)", &small, shafts,
+          "<= 5 us/px", NULL, NAN },
+        { "fogmap 64x64 linear, 3 levels (at 160x90, for the ratio below)", &small, fogmap64,
+          "-", NULL, NAN },
+        { "fogmap 4096x4096 linear, 9 levels (the same fog)", &small, fogmap4096,
+          "<= 2x the 64x64 at max \\|dtau\\| <= 1e-4", NULL, NAN },
+    };
+    for (size_t k = 0; k < FP_ARRAY_LEN(looks); k++) {
+        set_t *s = looks[k].set;
+        looks[k].ns = marginal_ns(s, looks[k].opts, looks[k].io);
+        frame1_t f;
+        err_t e = { NAN, NAN };
+        if (frame1_open(s, 4000, &f) || look_error(s, &f, looks[k].opts, NULL, &e, NULL))
+            fprintf(stderr, "bench_looks: %s: no error figure\n", looks[k].name);
+        frame1_close(&f);
+        char ns[64];
+        fmt_ns(ns, sizeof ns, looks[k].ns);
+        printf("| %s | %dx%d, %d | %s | %.1e | %.1e | %s |\n", looks[k].name, s->width,
+               s->height, s->frames, ns, e.tau, e.s, looks[k].goal);
+    }
+    printf("\n4096x4096 against 64x64 (160x90): %.1fx the cost.\n", looks[6].ns / looks[5].ns);
+
+    /* Exact against the uniform march at the same max error: the march
+     * with the fewest steps (powers of two) whose max |dtau| against the
+     * exact C reference is within 1e-5, as exact's own is. */
+    {
+        frame1_t f;
+        if (frame1_open(&mid, 4000, &f) == FP_OK) {
+            err_t ee = { NAN, NAN };
+            look_error(&mid, &f, fogmap64, NULL, &ee, NULL);
+            int steps = 0;
+            err_t em = { NAN, NAN };
+            char steps_s[16];
+            const char *march[] = { "--integrator", "march", "--steps", steps_s, NULL };
+            for (int n = 64; n <= 16384; n *= 2) {
+                snprintf(steps_s, sizeof steps_s, "%d", n);
+                if (look_error(&mid, &f, fogmap64, march, &em, NULL))
+                    break;
+                if (em.tau <= 1e-5) {
+                    steps = n;
+                    break;
+                }
+            }
+            frame1_close(&f);
+            const char *opts[32];
+            size_t m = 0;
+            for (const char *const *o = fogmap64; *o; o++)
+                opts[m++] = *o;
+            for (const char *const *o = march; *o; o++)
+                opts[m++] = *o;
+            opts[m] = NULL;
+            double mns = steps ? marginal_ns(&mid, opts, NULL) : NAN;
+            printf("\nExact against the uniform march at the same max error (fogmap 64x64 linear, "
+                   "3 levels, %dx%d): exact %.2f us/px, max |dtau| %.1e; march %d steps %.2f "
+                   "us/px, max |dtau| %.1e: **exact %.1fx faster** (goal >= 10x).\n",
+                   mid.width, mid.height, looks[2].ns / 1000, ee.tau, steps, mns / 1000, em.tau,
+                   mns / looks[2].ns);
+        }
+    }
+
+    /* Whole sequence: frames/s (--stats, best of 3) and CPU. */
+    {
+        static const char *const nofog[] = { "--no-fog", NULL };
+        static const char *const nofog_off[] = { "--no-fog", "--pipeline", "off", NULL };
+        double fps_on, fps_off, fps_fog;
+        double cpu_on = min_cpu(&hd, hd.frames, NULL, nofog, &fps_on);
+        min_cpu(&hd, hd.frames, NULL, nofog_off, &fps_off);
+        double cpu_fog = min_cpu(&hd, hd.frames, height_fog, NULL, &fps_fog);
+        printf("\n1920x1080, 8 frames: `--no-fog` %.2f frames/s pipelined, %.2f with `--pipeline "
+               "off`: **%.2fx** (goal >= 1.7x). Height fog %.2f frames/s: --no-fog is **%.2fx** "
+               "faster (goal <= 1.2x); CPU %.2f s against %.2f s (%.2fx). Frames/s are wall "
+               "time (other work on the machine lowers them).\n",
+               fps_on, fps_off, fps_on / fps_off, fps_fog, fps_on / fps_fog, cpu_fog, cpu_on,
+               cpu_fog / cpu_on);
+    }
+    fp_scatter_cl_release(&scl);
+    fp_integrate_cl_release(&icl);
+    fp_cl_close(cl);
+    return 0;
+}
