@@ -120,6 +120,94 @@ static size_t band_size(const fp_fogmap_t *m, int l)
     return (size_t)m->band[l][0].nx * m->band[l][0].ny;
 }
 
+/* A coarse level's surface refined onto the grid twice as fine, added to
+ * `out` (nx x ny = 2 cnx x 2 cny, periodic): coarse basis i is
+ * sum_k tap[k - lo] f_{2i+k} (filters/wavelet.h), along U then V. */
+static int refine_add(const double *coarse, int cnx, int cny, const fp_wavelet_filter_t *f,
+                      double *out)
+{
+    int nx = 2 * cnx, ny = 2 * cny;
+    double *tmp = calloc((size_t)nx * cny, sizeof *tmp);
+    if (!tmp)
+        return fp_error("fogmap: out of memory");
+    for (int j = 0; j < cny; j++)
+        for (int i = 0; i < cnx; i++) {
+            double c = coarse[(size_t)j * cnx + i];
+            if (c == 0)
+                continue;
+            for (int k = f->lo; k <= f->hi; k++)
+                tmp[(size_t)j * nx + ((2 * i + k) % nx + nx) % nx] += c * f->tap[k - f->lo];
+        }
+    for (int j = 0; j < cny; j++)
+        for (int k = f->lo; k <= f->hi; k++) {
+            double w = f->tap[k - f->lo];
+            double *o = out + (size_t)(((2 * j + k) % ny + ny) % ny) * nx;
+            const double *r = tmp + (size_t)j * nx;
+            for (int i = 0; i < nx; i++)
+                o[i] += w * r[i];
+        }
+    free(tmp);
+    return FP_OK;
+}
+
+/* The sums A_l = S_0 + ... + S_l, each on level l's grid, for the walk of
+ * kernels/fog_core.h (fp_grid_walk): *a holds A_1 .. A_{nl-2} one after
+ * another (A_0 is level 0, A_{nl-1} the padded fogmap itself); tail[l]
+ * the sum of max |coef| of the levels finer than l. */
+static int approx_levels(const fp_fogmap_t *m, float **a, size_t *na, double *tail)
+{
+    int nl = m->num_levels;
+    *a = NULL;
+    *na = 0;
+    tail[nl - 1] = 0;
+    for (int l = nl - 2; l >= 0; l--) {
+        double amax = 0;
+        const fp_fog_level_t *lv = &m->level[l + 1];
+        for (size_t i = 0; i < (size_t)lv->nx * lv->ny; i++)
+            amax = fmax(amax, fabs(lv->coef[i]));
+        tail[l] = tail[l + 1] + amax;
+    }
+    for (int l = 1; l + 1 < nl; l++)
+        *na += (size_t)m->level[l].nx * m->level[l].ny;
+    if (*na == 0)
+        return FP_OK;
+    *a = malloc(*na * sizeof **a);
+    const fp_fog_level_t *l0 = &m->level[0];
+    double *prev = malloc((size_t)l0->nx * l0->ny * sizeof *prev);
+    if (!*a || !prev) {
+        free(prev);
+        free(*a);
+        *a = NULL;
+        return fp_error("fogmap: out of memory");
+    }
+    for (size_t i = 0; i < (size_t)l0->nx * l0->ny; i++)
+        prev[i] = l0->coef[i];
+    size_t at = 0;
+    for (int l = 1; l + 1 < nl; l++) {
+        const fp_fog_level_t *lv = &m->level[l], *up = &m->level[l - 1];
+        size_t n = (size_t)lv->nx * lv->ny;
+        double *cur = calloc(n, sizeof *cur);
+        if (!cur || lv->nx != 2 * up->nx || lv->ny != 2 * up->ny ||
+            refine_add(prev, up->nx, up->ny, &m->synth[0], cur)) {
+            free(cur);
+            free(prev);
+            free(*a);
+            *a = NULL;
+            return fp_error("fogmap: cannot sum the levels (%dx%d under %dx%d)", lv->nx, lv->ny,
+                            up->nx, up->ny);
+        }
+        for (size_t i = 0; i < n; i++) {
+            cur[i] += lv->coef[i];
+            (*a)[at + i] = (float)cur[i];
+        }
+        at += n;
+        free(prev);
+        prev = cur;
+    }
+    free(prev);
+    return FP_OK;
+}
+
 static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_fog,
                         int deconstruct, fp_fog_tables_t *t)
 {
@@ -133,11 +221,17 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
         ncoef += !deconstruct && l > 0 ? 3 * band_size(m, l) : (size_t)lv->nx * lv->ny;
         nocc += (size_t)(lv->nx / b) * (lv->ny / b);
     }
-    t->coef = malloc(ncoef * sizeof(float));
+    float *approx = NULL;
+    size_t napprox = 0;
+    double tail[FP_LEVEL_TABLE] = { 0 };
+    if (deconstruct && approx_levels(m, &approx, &napprox, tail))
+        return FP_ERR;
+    t->coef = malloc((ncoef + napprox) * sizeof(float));
     t->occ = malloc(nocc + 1);
     fine.coef = padded_fine(img, m);
     if (!t->coef || !t->occ || !fine.coef) {
         free(fine.coef);
+        free(approx);
         return fp_error("fogmap: out of memory");
     }
     size_t co = 0, oo = 0;
@@ -171,6 +265,27 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
         }
     }
     free(fine.coef);
+    /* The walk's surfaces: A_0 = level 0, A_{nl-1} = the fine grid (row nl),
+     * the others after every level's coefficients; none with raw bands. */
+    size_t ao = co;
+    for (int l = 0; l < nl; l++) {
+        int *li = t->lvi + l * FP_LI_STRIDE;
+        t->lvf[l * FP_LR_STRIDE + FP_LR_TAIL] = tail[l] * (1 + 1e-6);
+        if (!deconstruct) {
+            li[FP_LI_APPROX] = -1;
+        } else if (l == 0) {
+            li[FP_LI_APPROX] = li[FP_LI_COEF];
+        } else if (l == nl - 1) {
+            li[FP_LI_APPROX] = t->lvi[nl * FP_LI_STRIDE + FP_LI_COEF];
+        } else {
+            li[FP_LI_APPROX] = (int)ao;
+            ao += (size_t)li[FP_LI_NX] * li[FP_LI_NY];
+        }
+    }
+    if (napprox)
+        memcpy(t->coef + co, approx, napprox * sizeof(float));
+    free(approx);
+    ncoef += napprox;
     static _Atomic unsigned long serial;
     t->serial = ++serial;
     t->nlevels = nl;
