@@ -37,6 +37,15 @@
 #define FP_REAL fp_real
 #include "bspline.h"
 
+/* Always inlined: the walk's helpers, so that the degree becomes a
+ * constant in each copy and their small loops unroll (PoCL and gcc leave
+ * them as calls otherwise). */
+#ifdef __OPENCL_VERSION__
+#define FP_HOT inline __attribute__((always_inline))
+#else
+#define FP_HOT static inline __attribute__((always_inline))
+#endif
+
 /* Layout of the fog parameter array (filled by fp_fog_pack in
  * filters/integrate.c). */
 #define FP_F_SIGMA 0
@@ -404,9 +413,12 @@ FP_TABLE fp_real fp_bsp_a[4][16] = {
 
 /* int_0^1 P(x) exp(-u x) dx for P of degree 2d (coefficients P[0..2d]),
  * |u| <= FP_SEG_U. */
-FP_FN fp_real fp_poly_exp_integral(const fp_real *P, const int d, fp_real u)
+FP_HOT fp_real fp_poly_exp_integral(const fp_real *P, const int d, fp_real u)
 {
     fp_real e = 1, sum = 0;
+#ifdef __OPENCL_VERSION__
+#pragma unroll
+#endif
     for (int j = 0; j < FP_SEG_TERMS; j++) {
         fp_real s = 0;
         for (int k = 0; k <= 2 * d; k++)
@@ -419,7 +431,7 @@ FP_FN fp_real fp_poly_exp_integral(const fp_real *P, const int d, fp_real u)
 
 /* The surface along one segment as a polynomial in x in [0, 1]: local
  * cell coordinates (px + qx x, py + qy x), coefficients c[j * 4 + i]. */
-FP_FN void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, fp_real py,
+FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, fp_real py,
                         fp_real qy, fp_real *P)
 {
     /* g[q][p]: the cell's surface as sum g_qp sx^p sy^q. */
@@ -513,7 +525,7 @@ FP_FN int fp_lod_level(FP_CONSTANT const fp_real *lvf, fp_lod_t *lod, int L, fp_
  * until b, until the optical depth passes od_stop, or (lod->bound > 0)
  * until a coarser level may take over: *t_end and *L_next say where and
  * which.  `od` is the optical depth before a (for the bound). */
-FP_FN fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                            const int d, int L, const fp_path_t *p, fp_real a, fp_real b,
                            fp_real od, fp_real od_stop, fp_lod_t *lod, fp_real *t_end,
@@ -560,13 +572,33 @@ FP_FN fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
                 c[j * 4 + i] = row[ki];
             }
         }
-        fp_real P[7];
-        fp_cell_poly(d, c, xs + t * dxdt - k, dxdt * len, ys + t * dydt - m, dydt * len, P);
+        fp_real px = xs + t * dxdt - k, qx = dxdt * len, py = ys + t * dydt - m, qy = dydt * len;
         fp_real ya = p->oy + t * p->dy;
         int above = (p->oy + (t + (fp_real)0.5 * len) * p->dy) > y0;
         fp_real u = above ? lam * len : (fp_real)0;
         fp_real ha = exp(-fmax(ya - y0, (fp_real)0) / H);
-        sum += ha * len * fp_poly_exp_integral(P, d, u);
+        fp_real seg;
+        if (d == 1) {
+            /* Bilinear: F = g0 + g1 sx + g2 sy + g3 sx sy, written out. */
+            fp_real g1 = c[1] - c[0], g2 = c[4] - c[0], g3 = c[5] - c[4] - g1;
+            fp_real P0 = c[0] + g1 * px + (g2 + g3 * px) * py;
+            fp_real P1 = g1 * qx + g2 * qy + g3 * (px * qy + qx * py);
+            fp_real P2 = g3 * qx * qy;
+            fp_real e = 1;
+            seg = 0;
+#ifdef __OPENCL_VERSION__
+#pragma unroll
+#endif
+            for (int j = 0; j < FP_SEG_TERMS; j++) {
+                seg += e * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
+                e *= -u * fp_recip[j];
+            }
+        } else {
+            fp_real P[7];
+            fp_cell_poly(d, c, px, qx, py, qy, P);
+            seg = fp_poly_exp_integral(P, d, u);
+        }
+        sum += ha * len * seg;
         /* Step to the next cell where the segment ended on its edge. */
         int stepx = tx <= tn, stepy = ty <= tn;
         k += stepx ? sx : 0;
