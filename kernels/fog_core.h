@@ -389,8 +389,8 @@ FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const
  * the omitted rest is below FP_SEG_U^J / J!.  No quadrature, one exp per
  * segment, no branch around the math. */
 #ifdef __OPENCL_VERSION__
-#define FP_SEG_U 0.5f      /* remainder 0.5^8 / 8! = 1e-7 of the segment */
-#define FP_SEG_TERMS 8
+#define FP_SEG_U 0.25f     /* remainder 0.25^7 / 7! = 1.2e-8 of the segment */
+#define FP_SEG_TERMS 7
 #else
 #define FP_SEG_U 0.25      /* remainder 0.25^13 / 13! = 2e-18 */
 #define FP_SEG_TERMS 13
@@ -552,7 +552,7 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     int kw = fp_wrap_index(k - first, nx), mw = fp_wrap_index(m - first, ny);
     fp_real tx = dxdt != 0 ? (k + (dxdt > 0) - xs) * ix : FP_INF;
     fp_real ty = dydt != 0 ? (m + (dydt > 0) - ys) * iy : FP_INF;
-    fp_real t = a, sum = 0, od0 = od;
+    fp_real t = a, sum = 0, od0 = od, hc = 1;
     int check = lod->bound > 0 && L > 0;
     *L_next = L;
     for (int guard = 0; t < b && od0 + sum <= od_stop && guard < (1 << 24); guard++) {
@@ -576,7 +576,11 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         fp_real ya = p->oy + t * p->dy;
         int above = (p->oy + (t + (fp_real)0.5 * len) * p->dy) > y0;
         fp_real u = above ? lam * len : (fp_real)0;
-        fp_real ha = exp(-fmax(ya - y0, (fp_real)0) / H);
+        /* h at the segment's start: carried from the last segment's end
+         * (times exp(-u), from the same series), exact every 8th. */
+        if ((guard & 7) == 0)
+            hc = exp(-fmax(ya - y0, (fp_real)0) / H);
+        fp_real ha = hc, E = 1;
         fp_real seg;
         if (d == 1) {
             /* Bilinear: F = g0 + g1 sx + g2 sy + g3 sx sy, written out. */
@@ -592,13 +596,16 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             for (int j = 0; j < FP_SEG_TERMS; j++) {
                 seg += e * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
                 e *= -u * fp_recip[j];
+                E += j + 1 < FP_SEG_TERMS ? e : (fp_real)0;
             }
         } else {
             fp_real P[7];
             fp_cell_poly(d, c, px, qx, py, qy, P);
             seg = fp_poly_exp_integral(P, d, u);
+            E = exp(-u);
         }
         sum += ha * len * seg;
+        hc = ha * E;
         /* Step to the next cell where the segment ended on its edge. */
         int stepx = tx <= tn, stepy = ty <= tn;
         k += stepx ? sx : 0;
