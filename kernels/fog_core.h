@@ -391,10 +391,30 @@ FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const
 #ifdef __OPENCL_VERSION__
 #define FP_SEG_U 0.25f     /* remainder 0.25^7 / 7! = 1.2e-8 of the segment */
 #define FP_SEG_TERMS 7
+#define FP_SEG_POW2 8      /* FP_SEG_TERMS rounded up to a power of 2 */
 #else
 #define FP_SEG_U 0.25      /* remainder 0.25^13 / 13! = 2e-18 */
 #define FP_SEG_TERMS 13
+#define FP_SEG_POW2 16
 #endif
+
+/* 1 / j!, j = 0..15. */
+FP_TABLE fp_real fp_invfact[16] = {
+    1.0, 1.0, 1.0 / 2, 1.0 / 6, 1.0 / 24, 1.0 / 120, 1.0 / 720, 1.0 / 5040, 1.0 / 40320,
+    1.0 / 362880, 1.0 / 3628800, 1.0 / 39916800, 1.0 / 479001600, 1.0 / 6227020800.0,
+    1.0 / 87178291200.0, 1.0 / 1307674368000.0 };
+
+/* sum_j c[j] z^j, j < FP_SEG_POW2, pairwise (Estrin): a few dependent
+ * steps instead of one per term; c is overwritten. */
+FP_HOT fp_real fp_estrin(fp_real *c, fp_real z)
+{
+    for (int w = FP_SEG_POW2; w > 1; w /= 2) {
+        for (int i = 0; i < w / 2; i++)
+            c[i] = c[2 * i] + c[2 * i + 1] * z;
+        z *= z;
+    }
+    return c[0];
+}
 
 /* 1 / n, n = 1..24. */
 FP_TABLE fp_real fp_recip[24] = {
@@ -415,18 +435,14 @@ FP_TABLE fp_real fp_bsp_a[4][16] = {
  * |u| <= FP_SEG_U. */
 FP_HOT fp_real fp_poly_exp_integral(const fp_real *P, const int d, fp_real u)
 {
-    fp_real e = 1, sum = 0;
-#ifdef __OPENCL_VERSION__
-#pragma unroll
-#endif
-    for (int j = 0; j < FP_SEG_TERMS; j++) {
+    fp_real c[FP_SEG_POW2];
+    for (int j = 0; j < FP_SEG_POW2; j++) {
         fp_real s = 0;
         for (int k = 0; k <= 2 * d; k++)
             s += P[k] * fp_recip[k + j];
-        sum += e * s;
-        e *= -u * fp_recip[j];
+        c[j] = j < FP_SEG_TERMS ? s * fp_invfact[j] : (fp_real)0;
     }
-    return sum;
+    return fp_estrin(c, -u);
 }
 
 /* The surface along one segment as a polynomial in x in [0, 1]: local
@@ -588,16 +604,14 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             fp_real P0 = c[0] + g1 * px + (g2 + g3 * px) * py;
             fp_real P1 = g1 * qx + g2 * qy + g3 * (px * qy + qx * py);
             fp_real P2 = g3 * qx * qy;
-            fp_real e = 1;
-            seg = 0;
-#ifdef __OPENCL_VERSION__
-#pragma unroll
-#endif
-            for (int j = 0; j < FP_SEG_TERMS; j++) {
-                seg += e * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
-                e *= -u * fp_recip[j];
-                E += j + 1 < FP_SEG_TERMS ? e : (fp_real)0;
+            fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
+            for (int j = 0; j < FP_SEG_POW2; j++) {
+                fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
+                cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
+                ce[j] = f;
             }
+            seg = fp_estrin(cs, -u);
+            E = fp_estrin(ce, -u);
         } else {
             fp_real P[7];
             fp_cell_poly(d, c, px, qx, py, qy, P);
