@@ -36,6 +36,10 @@ const fp_option_t fp_fogmap_options[] = {
       NULL, 0 },
     { "lod-footprint", 0, FP_OPT_REAL, FM(lod_footprint), 0, 0, "0", 0, 1e4, NULL, "PX",
       "drop a detail level where its cells project below PX pixels (0 = off)", NULL, 0 },
+    { "lod-bound", 0, FP_OPT_REAL, FM(lod_bound), 0, 0, "0", 0, 1, NULL, "DTAU",
+      "drop the finer levels along a ray where they cannot change its transmittance by more "
+      "than DTAU in all (their max |coefficient| times the rest of the path, weighted by the "
+      "height profile and the transmittance so far; 0 = exact)", NULL, 0 },
     { "min-transmittance", 0, FP_OPT_REAL, FM(min_transmittance), 0, 0, "0", 0, 1, NULL, "T",
       "stop integrating a ray once its transmittance is below T (0 = never)", NULL, 0 },
     { "integrator", 0, FP_OPT_ENUM, FM(integrator), 0, 0, "exact", 0, 0,
@@ -398,6 +402,7 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
     v[FP_F_WRAP] = m->wrap;
     v[FP_F_NLEVELS] = m->num_levels;
     v[FP_F_LOD_MU] = fm->lod_mu;
+    v[FP_F_LOD_BOUND] = fm->lod_bound;
     v[FP_F_OD_MAX] = fm->min_transmittance > 0 ? -log(fm->min_transmittance) : INFINITY;
     /* Unbounded rays (clamp, repeat) that never leave the fog: integrate
      * 64 fogmap widths, far past any transmittance that shows. */

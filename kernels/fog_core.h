@@ -580,11 +580,11 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         fp_real c[16];
         for (int j = 0; j <= d; j++) {
             int mj = mw + j;
-            mj -= mj >= ny ? ny : 0;
+            mj = mj >= ny ? mj % ny : mj;   /* % only on grids narrower than d + 1 */
             FP_GLOBAL const float *row = cf + (size_t)mj * nx;
             for (int i = 0; i <= d; i++) {
                 int ki = kw + i;
-                ki -= ki >= nx ? nx : 0;
+                ki = ki >= nx ? ki % nx : ki;
                 c[j * 4 + i] = row[ki];
             }
         }
@@ -631,7 +631,7 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         mw = mw >= ny ? mw - ny : mw < 0 ? mw + ny : mw;
         ty = stepy ? (m + (dydt > 0) - ys) * iy : ty;
         t = tn;
-        if (check && t < b) {
+        if (check && (guard & 7) == 7 && t < b) {
             int l = fp_lod_level(lvf, lod, L, od0 + sum,
                                  fp_rest_weight(y0, H, p, t, lod->end));
             if (l < L) {
