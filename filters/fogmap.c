@@ -212,6 +212,66 @@ static int approx_levels(const fp_fogmap_t *m, float **a, size_t *na, double *ta
     return FP_OK;
 }
 
+/* For --lod-bound: per cell of level l's grid, l = 0..nl-2, a bound of
+ * |F - A_l| there: t_l(cell) = max over the 4 cells under it of
+ * (max |coef| of level l+1 reaching that cell + t_{l+1}), t_{nl-1} = 0.
+ * *tm holds t_0 .. t_{nl-2} one after another. */
+static int tail_maps(const fp_fogmap_t *m, float **tm, size_t *ntm)
+{
+    int nl = m->num_levels, d = m->degree, first = d / 2;
+    *tm = NULL;
+    *ntm = 0;
+    for (int l = 0; l + 1 < nl; l++)
+        *ntm += (size_t)m->level[l].nx * m->level[l].ny;
+    if (*ntm == 0)
+        return FP_OK;
+    *tm = calloc(*ntm, sizeof **tm);
+    float *a = NULL;
+    if (*tm)
+        a = malloc((size_t)m->level[nl - 1].nx * m->level[nl - 1].ny * sizeof *a);
+    if (!*tm || !a) {
+        free(*tm);
+        *tm = NULL;
+        return fp_error("fogmap: out of memory");
+    }
+    size_t off[FP_MAX_LEVELS + 1], at = 0;
+    for (int l = 0; l + 1 < nl; l++) {
+        off[l] = at;
+        at += (size_t)m->level[l].nx * m->level[l].ny;
+    }
+    for (int l = nl - 2; l >= 0; l--) {
+        const fp_fog_level_t *fine = &m->level[l + 1];
+        int fx = fine->nx, fy = fine->ny;
+        /* a: level l+1's largest |coef| over each of its cells, plus t_{l+1}. */
+        for (int mm = 0; mm < fy; mm++)
+            for (int k = 0; k < fx; k++) {
+                float v = 0;
+                for (int j = 0; j <= d; j++)
+                    for (int i = 0; i <= d; i++) {
+                        int kw = ((k - first + i) % fx + fx) % fx;
+                        int mw = ((mm - first + j) % fy + fy) % fy;
+                        v = fmaxf(v, fabsf(fine->coef[(size_t)mw * fx + kw]));
+                    }
+                if (l + 2 < nl)
+                    v += (*tm)[off[l + 1] + (size_t)mm * fx + k];
+                a[(size_t)mm * fx + k] = v;
+            }
+        int cx = m->level[l].nx, cy = m->level[l].ny;
+        float *out = *tm + off[l];
+        for (int mm = 0; mm < cy; mm++)
+            for (int k = 0; k < cx; k++) {
+                float v = 0;
+                for (int j = 0; j < 2; j++)
+                    for (int i = 0; i < 2; i++)
+                        v = fmaxf(v, a[(size_t)(2 * mm + j) * fx + 2 * k + i]);
+                /* Rounded up past float's rounding of the sums. */
+                out[(size_t)mm * cx + k] = v * (1 + 1e-5f);
+            }
+    }
+    free(a);
+    return FP_OK;
+}
+
 static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_fog,
                         int deconstruct, fp_fog_tables_t *t)
 {
@@ -228,14 +288,21 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
     float *approx = NULL;
     size_t napprox = 0;
     double tail[FP_LEVEL_TABLE] = { 0 };
+    float *tmaps = NULL;
+    size_t ntmaps = 0;
     if (deconstruct && approx_levels(m, &approx, &napprox, tail))
         return FP_ERR;
-    t->coef = malloc((ncoef + napprox) * sizeof(float));
+    if (deconstruct && tail_maps(m, &tmaps, &ntmaps)) {
+        free(approx);
+        return FP_ERR;
+    }
+    t->coef = malloc((ncoef + napprox + ntmaps) * sizeof(float));
     t->occ = malloc(nocc + 1);
     fine.coef = padded_fine(img, m);
     if (!t->coef || !t->occ || !fine.coef) {
         free(fine.coef);
         free(approx);
+        free(tmaps);
         return fp_error("fogmap: out of memory");
     }
     size_t co = 0, oo = 0;
@@ -271,10 +338,15 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
     free(fine.coef);
     /* The walk's surfaces: A_0 = level 0, A_{nl-1} = the fine grid (row nl),
      * the others after every level's coefficients; none with raw bands. */
-    size_t ao = co;
+    size_t ao = co, to = co + napprox;
     for (int l = 0; l < nl; l++) {
         int *li = t->lvi + l * FP_LI_STRIDE;
         t->lvf[l * FP_LR_STRIDE + FP_LR_TAIL] = tail[l] * (1 + 1e-6);
+        li[FP_LI_TMAP] = -1;
+        if (deconstruct && l + 1 < nl) {
+            li[FP_LI_TMAP] = (int)to;
+            to += (size_t)li[FP_LI_NX] * li[FP_LI_NY];
+        }
         if (!deconstruct) {
             li[FP_LI_APPROX] = -1;
         } else if (l == 0) {
@@ -288,8 +360,11 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
     }
     if (napprox)
         memcpy(t->coef + co, approx, napprox * sizeof(float));
+    if (ntmaps)
+        memcpy(t->coef + co + napprox, tmaps, ntmaps * sizeof(float));
     free(approx);
-    ncoef += napprox;
+    free(tmaps);
+    ncoef += napprox + ntmaps;
     static _Atomic unsigned long serial;
     t->serial = ++serial;
     t->nlevels = nl;

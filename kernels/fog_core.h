@@ -90,6 +90,7 @@
 #define FP_LI_BLOCK 4     /* cells per occupancy block (divides nx and ny) */
 #define FP_LI_BANDS 5     /* 1: raw LH, HL, HH bands at half resolution, expanded on the fly */
 #define FP_LI_APPROX 6    /* offset of A_l = S_0 + .. + S_l on this level's grid (-1: none) */
+#define FP_LI_TMAP 7      /* offset of the cells' bounds of |F - A_l| (-1: none, 0 there) */
 #define FP_LI_STRIDE 8
 #define FP_LR_CELL 0      /* cell size in domain pixels */
 #define FP_LR_ORIGIN_U 1  /* basis (i,j) centered at origin + cell*(i,j) */
@@ -485,17 +486,27 @@ FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, 
     }
 }
 
-/* Bounded level of detail (--lod-bound): the levels in use, what of the
- * bound the switches so far have committed, and what the check needs. */
+/* Bounded level of detail (--lod-bound).  Each cell of level l's grid
+ * carries a bound of |F - A_l| there (the sum over the finer levels of
+ * their largest |coefficient| reaching the cell; B-splines are >= 0 and
+ * sum to 1; filters/fogmap.c), so a segment integrated on A_l instead of
+ * F changes the optical depth by at most D = sigma bound w, w >= int h
+ * over the segment, and tau by at most exp(-od) D exp(2 D), od the
+ * optical depth computed before it (|tau - tau'| <= sum_i exp(-od'_<i)
+ * exp(|da_i|) |da_i| telescoping, and od' falls at most by the D's).  A
+ * segment is kept on the coarse grid only while these costs stay within
+ * the bound times the share of the path's weight done; otherwise the walk
+ * goes one level finer there, and tries one coarser every 8 segments. */
 typedef struct fp_lod_t {
     fp_real bound;     /* largest |dtau| allowed in all (0: exact) */
-    fp_real spent;     /* committed by the switches made */
+    fp_real spent;     /* the costs of the segments done */
     fp_real sigma;
-    fp_real end;       /* where the ray's fog ends */
+    fp_real wdone;     /* their weights (upper bounds of int h) */
+    fp_real wtot;      /* an upper bound of int h over the whole ray */
 } fp_lod_t;
 
-/* Weight of the rest of the path, int_t^end h: an upper bound from the
- * lowest point of the rest (h is monotone along a straight path). */
+/* Weight of the path over [t, end], int h: an upper bound (h is monotone
+ * along a straight path). */
 FP_FN fp_real fp_rest_weight(fp_real y0, fp_real H, const fp_path_t *p, fp_real t, fp_real end)
 {
     fp_real ya = p->oy + t * p->dy, yb = p->oy + end * p->dy;
@@ -508,32 +519,18 @@ FP_FN fp_real fp_rest_weight(fp_real y0, fp_real H, const fp_path_t *p, fp_real 
                                : fmin(fmax((y0 - low) / fabs(p->dy), (fp_real)0), len);
     fp_real above = p->dy == 0 || !isfinite(H) ? (len - below) * fmax(ha, hb)
                                                : fabs(ha - hb) * H / fabs(p->dy);
-    return fmin(len * hmax, below + above);
+    return fmin(len * hmax, below + above) * (1 + (fp_real)1e-5);
 }
 
-/* The coarsest level l <= L whose whole rest of the path may be dropped
- * to: exp(-od) (transmittance so far, through the surfaces computed) times
- * the change that dropping can make, within the bound still free.  With
- * A_l >= -tail (F >= 0), od can fall by at most D = sigma tail W on the
- * rest, so the rest's change of tau is at most exp(-od) D exp(2 D)
- * (telescoping sum of |exp(-a_i) - exp(-a'_i)| <= exp(|da_i|) |da_i|). */
-FP_FN int fp_lod_level(FP_CONSTANT const fp_real *lvf, fp_lod_t *lod, int L, fp_real od,
-                       fp_real w)
+/* The cell bound of level L's grid at cell (k, m) (0 on the finest). */
+FP_FN fp_real fp_lod_tmap(FP_CONSTANT const int *lvi, FP_GLOBAL const float *coef, int L, int k,
+                          int m)
 {
-    fp_real free_ = lod->bound - lod->spent;
-    fp_real att = exp(-lod->sigma * od);
-    int best = L;
-    fp_real commit = 0;
-    for (int l = L - 1; l >= 0; l--) {
-        fp_real D = lod->sigma * lvf[l * FP_LR_STRIDE + FP_LR_TAIL] * w;
-        fp_real c = att * D * exp(2 * D);
-        if (!(c <= free_))
-            break;
-        best = l;
-        commit = c;
-    }
-    lod->spent += commit;
-    return best;
+    int off = lvi[L * FP_LI_STRIDE + FP_LI_TMAP];
+    if (off < 0)
+        return 0;
+    int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
+    return coef[off + (size_t)fp_wrap_index(m, ny) * nx + fp_wrap_index(k, nx)];
 }
 
 /* Integral of A_L times h(y) along p over [a, b], segment by segment (2D
@@ -543,8 +540,8 @@ FP_FN int fp_lod_level(FP_CONSTANT const fp_real *lvf, fp_lod_t *lod, int L, fp_
  * which.  `od` is the optical depth before a (for the bound). */
 FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
-                           const int d, int L, const fp_path_t *p, fp_real a, fp_real b,
-                           fp_real od, fp_real od_stop, fp_lod_t *lod, fp_real *t_end,
+                           const int d, int L, int finer, const fp_path_t *p, fp_real a,
+                           fp_real b, fp_real od, fp_real od_stop, fp_lod_t *lod, fp_real *t_end,
                            int *L_next)
 {
     int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
@@ -569,7 +566,8 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_real tx = dxdt != 0 ? (k + (dxdt > 0) - xs) * ix : FP_INF;
     fp_real ty = dydt != 0 ? (m + (dydt > 0) - ys) * iy : FP_INF;
     fp_real t = a, sum = 0, od0 = od, hc = 1;
-    int check = lod->bound > 0 && L > 0;
+    int bounded = lod->bound > 0 && finer && lvi[L * FP_LI_STRIDE + FP_LI_TMAP] >= 0;
+    int coarser = lod->bound > 0 && L > 0;
     *L_next = L;
     for (int guard = 0; t < b && od0 + sum <= od_stop && guard < (1 << 24); guard++) {
         fp_real tn = fmin(fmin(tx, ty), fmin(b, t + lmax));
@@ -618,6 +616,19 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             seg = fp_poly_exp_integral(P, d, u);
             E = exp(-u);
         }
+        if (bounded) {
+            /* What integrating this segment on A_L instead of F may cost. */
+            fp_real w = len * fmax(ha, ha * E);
+            fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L, k, m) * w;
+            fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
+            fp_real share = fmin((fp_real)1, (lod->wdone + w) / lod->wtot);
+            if (!(lod->spent + cost <= lod->bound * share)) {
+                *L_next = L + 1;   /* again from t, one level finer */
+                break;
+            }
+            lod->spent += cost;
+            lod->wdone += w;
+        }
         sum += ha * len * seg;
         hc = ha * E;
         /* Step to the next cell where the segment ended on its edge. */
@@ -631,11 +642,20 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         mw = mw >= ny ? mw - ny : mw < 0 ? mw + ny : mw;
         ty = stepy ? (m + (dydt > 0) - ys) * iy : ty;
         t = tn;
-        if (check && (guard & 7) == 7 && t < b) {
-            int l = fp_lod_level(lvf, lod, L, od0 + sum,
-                                 fp_rest_weight(y0, H, p, t, lod->end));
-            if (l < L) {
-                *L_next = l;
+        if (coarser && (guard & 7) == 7 && t < b) {
+            /* One level coarser where its cell's bound would have let this
+             * segment through with room for 8 of them. */
+            fp_real cc = lvf[(L - 1) * FP_LR_STRIDE + FP_LR_CELL];
+            fp_real xc = (p->u0 + t * p->du - lvf[(L - 1) * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cc +
+                         kappa;
+            fp_real yc = (p->v0 + t * p->dv - lvf[(L - 1) * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cc +
+                         kappa;
+            fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L - 1, fp_cell_of(xc, p->du),
+                                                 fp_cell_of(yc, p->dv)) * len * fmax(hc, ha);
+            fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
+            fp_real share = fmin((fp_real)1, (lod->wdone + 8 * len * fmax(hc, ha)) / lod->wtot);
+            if (lod->spent + 8 * cost <= lod->bound * share) {
+                *L_next = L - 1;
                 break;
             }
         }
@@ -647,19 +667,23 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
 /* fp_grid_walk with the degree a constant, so that its loops unroll. */
 FP_FN fp_real fp_grid_walk_any(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                                FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
-                               int d, int L, const fp_path_t *p, fp_real a, fp_real b,
-                               fp_real od, fp_real od_stop, fp_lod_t *lod, fp_real *t_end,
-                               int *L_next)
+                               int d, int L, int finer, const fp_path_t *p, fp_real a,
+                               fp_real b, fp_real od, fp_real od_stop, fp_lod_t *lod,
+                               fp_real *t_end, int *L_next)
 {
     switch (d) {
     case 0:
-        return fp_grid_walk(fp, lvi, lvf, coef, 0, L, p, a, b, od, od_stop, lod, t_end, L_next);
+        return fp_grid_walk(fp, lvi, lvf, coef, 0, L, finer, p, a, b, od, od_stop, lod, t_end,
+                            L_next);
     case 1:
-        return fp_grid_walk(fp, lvi, lvf, coef, 1, L, p, a, b, od, od_stop, lod, t_end, L_next);
+        return fp_grid_walk(fp, lvi, lvf, coef, 1, L, finer, p, a, b, od, od_stop, lod, t_end,
+                            L_next);
     case 2:
-        return fp_grid_walk(fp, lvi, lvf, coef, 2, L, p, a, b, od, od_stop, lod, t_end, L_next);
+        return fp_grid_walk(fp, lvi, lvf, coef, 2, L, finer, p, a, b, od, od_stop, lod, t_end,
+                            L_next);
     default:
-        return fp_grid_walk(fp, lvi, lvf, coef, 3, L, p, a, b, od, od_stop, lod, t_end, L_next);
+        return fp_grid_walk(fp, lvi, lvf, coef, 3, L, finer, p, a, b, od, od_stop, lod, t_end,
+                            L_next);
     }
 }
 
@@ -863,20 +887,25 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
     lod.bound = fp[FP_F_LOD_BOUND];
     lod.spent = 0;
     lod.sigma = sigma;
-    lod.end = b;
-    int L = nl - 1, d = (int)fp[FP_F_DEGREE];
+    lod.wdone = 0;
+    lod.wtot = lod.bound > 0 ? fp_rest_weight(fp[FP_F_Y0], fp[FP_F_H], &p, a, b) : 1;
+    /* Bounded: from the coarsest grid, finer where the bound asks. */
+    int L = lod.bound > 0 ? 0 : nl - 1, d = (int)fp[FP_F_DEGREE];
     for (int piece = 0; walk && piece + 1 < ncut && od <= od_max; piece++) {
         fp_real t = cuts[piece], pb = cuts[piece + 1];
         fp_path_t q = p;
         if (wrap == 1)
             fp_clamp_piece(fp, &p, t, pb, &q);
-        for (int pass = 0; t < pb && od <= od_max && pass < 2 * FP_MAX_LEVELS_ALL; pass++) {
-            while (L > 0 && !(t < dmax[L]))
-                L--;
+        for (int pass = 0; t < pb && od <= od_max && pass < (1 << 20); pass++) {
+            /* The finest level --lod-mu and --lod-footprint keep at t. */
+            int Lcap = nl - 1;
+            while (Lcap > 0 && !(t < dmax[Lcap]))
+                Lcap--;
+            L = L < Lcap ? L : Lcap;
             fp_real te;
             int Ln;
-            od += fp_grid_walk_any(fp, lvi, lvf, coef, d, L, &q, t, fmin(pb, dmax[L]), od,
-                                   od_max, &lod, &te, &Ln);
+            od += fp_grid_walk_any(fp, lvi, lvf, coef, d, L, L < Lcap, &q, t, fmin(pb, dmax[L]),
+                                   od, od_max, &lod, &te, &Ln);
             L = Ln;
             t = te;
         }

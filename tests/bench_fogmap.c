@@ -148,6 +148,7 @@ int main(int argc, char **argv)
         return 2;
     }
     const char *what = argc > 3 ? argv[3] : "all";
+    setvbuf(stdout, NULL, _IOLBF, 0);   /* figures as they come */
     int all = !strcmp(what, "all");
     frame_t hd, seed;
     if (open_frame(argv[1], &hd) || open_frame(argv[2], &seed) || fp_cl_open(NULL, &cl) ||
