@@ -1,9 +1,10 @@
 /* fogpipe: the fog integrals along one view ray, written once and compiled
  * twice: as OpenCL C in single precision (kernels/integrate.cl) and as C in
  * double precision (filters/integrate.c, the reference).  The two differ in
- * precision and in quadrature order only (FP_GL_EXTRA, FP_EXP_STEP); the
- * logic is judged by brute-force quadrature of the fog's definition in the
- * tests (tests/test_integrate.c, tests/test_fogmap.c).
+ * precision and in quadrature order only (FP_GL_EXTRA, FP_EXP_STEP, and for
+ * the one walk per ray FP_SEG_U, FP_SEG_TERMS); the logic is judged by
+ * brute-force quadrature of the fog's definition in the tests
+ * (tests/test_integrate.c, tests/test_fogmap.c).
  *
  * Fog model (DESIGN.md, Conventions):
  *   sigma_t(p) = sigma F(u,v) h(y) + sigma_haze h_haze(y)
@@ -11,8 +12,11 @@
  * wavelet level, seed 000 sec. 4.4), h: 1 below Y0, exp(-(y-Y0)/H) above,
  * 0 above TOP.  Along a ray, within one cell of one level, F is a
  * polynomial of degree 2d in t and h an exponential, so each cell's
- * integral is Gauss-Legendre exact for the polynomial part (DESIGN,
- * Exactness); the exponential is kept smooth by splitting where it varies. */
+ * integral has a closed form (fp_grid_walk: moments of the exponential,
+ * the sum of all levels walked once) or is Gauss-Legendre exact for the
+ * polynomial part (fp_level_integral, level by level for raw bands; the
+ * exponential kept smooth by splitting where it varies) (DESIGN,
+ * Exactness). */
 #ifndef FP_FOG_CORE_H
 #define FP_FOG_CORE_H
 
