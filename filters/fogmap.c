@@ -53,7 +53,8 @@ const fp_option_t fp_fogmap_options[] = {
     { "jitter", 0, FP_OPT_FLAG, FM(jitter), 0, 0, NULL, 0, 1, NULL, NULL,
       "offset the march samples per pixel (the same pattern every frame)", NULL, 0 },
     { "sparse", 0, FP_OPT_ENUM, FM(sparse), 0, 0, "on", 0, 0, "off|on", NULL,
-      "skip blocks of zero coefficients while walking the grid (exact)", NULL, 0 },
+      "skip blocks of zero coefficients while walking each level's grid (exact; the "
+      "level-by-level walk of --deconstruct off)", NULL, 0 },
     { "deconstruct", 0, FP_OPT_ENUM, FM(deconstruct), 0, 0, "on", 0, 0, "off|on", NULL,
       "turn detail bands back into one B-spline surface per level (seed 000 sec. 4.4); off "
       "expands the raw bands on the fly (slower, for comparison)", NULL, 0 },
