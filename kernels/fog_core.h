@@ -526,6 +526,16 @@ FP_FN fp_real fp_rest_weight(fp_real y0, fp_real H, const fp_path_t *p, fp_real 
     return fmin(len * hmax, below + above) * (1 + (fp_real)1e-5);
 }
 
+/* What a segment of weight w may cost: the bound's share of the weight
+ * done, or what is left of the bound spread over the weight left, the
+ * larger; either keeps the sum of the costs within the bound. */
+FP_FN fp_real fp_lod_allowed(const fp_lod_t *lod, fp_real w)
+{
+    fp_real share = lod->bound * fmin((fp_real)1, (lod->wdone + w) / lod->wtot) - lod->spent;
+    fp_real left = (lod->bound - lod->spent) * fmin((fp_real)1, w / (lod->wtot - lod->wdone));
+    return fmax(share, left);
+}
+
 /* The cell bound of level L's grid at cell (k, m) (0 on the finest). */
 FP_FN fp_real fp_lod_tmap(FP_CONSTANT const int *lvi, FP_GLOBAL const float *coef, int L, int k,
                           int m)
@@ -625,8 +635,7 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             fp_real w = len * fmax(ha, ha * E);
             fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L, k, m) * w;
             fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
-            fp_real share = fmin((fp_real)1, (lod->wdone + w) / lod->wtot);
-            if (!(lod->spent + cost <= lod->bound * share)) {
+            if (!(cost <= fp_lod_allowed(lod, w))) {
                 *L_next = L + 1;   /* again from t, one level finer */
                 break;
             }
@@ -657,8 +666,7 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L - 1, fp_cell_of(xc, p->du),
                                                  fp_cell_of(yc, p->dv)) * len * fmax(hc, ha);
             fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
-            fp_real share = fmin((fp_real)1, (lod->wdone + 8 * len * fmax(hc, ha)) / lod->wtot);
-            if (lod->spent + 8 * cost <= lod->bound * share) {
+            if (8 * cost <= fp_lod_allowed(lod, 8 * len * fmax(hc, ha))) {
                 *L_next = L - 1;
                 break;
             }
