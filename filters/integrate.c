@@ -200,7 +200,8 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s)
     s->lvi = clCreateBuffer(ctx, CL_MEM_READ_ONLY, sizeof no_lvi, NULL, &err);
     if (fp_cl_check(err, "integrate: level buffer"))
         return FP_ERR;
-    s->lvf = clCreateBuffer(ctx, CL_MEM_READ_ONLY, FP_LEVEL_TABLE * FP_LR_STRIDE * sizeof(float), NULL, &err);
+    s->lvf = clCreateBuffer(ctx, CL_MEM_READ_ONLY, FP_LEVEL_TABLE * FP_LR_STRIDE * sizeof(float),
+                            NULL, &err);
     return fp_cl_check(err, "integrate: level buffer");
 }
 

@@ -164,7 +164,8 @@ int main(int argc, char **argv)
     float *img64 = make_fogmap(64);
     double ns64 = 0;
     if (all || !strcmp(what, "exact") || !strcmp(what, "large")) {
-        printf("| case | frame | ns/px | goal | max abs dtau | RMS dtau |\n|---|---|---|---|---|---|\n");
+        printf("| case | frame | ns/px | goal | max abs dtau | RMS dtau |\n"
+               "|---|---|---|---|---|---|\n");
         fp_integrate_data_t d;
         fp_fogmap_stage_t st;
         if (setup(&hd, img64, 64, 1, 3, &st, &d))
@@ -223,8 +224,8 @@ int main(int argc, char **argv)
             ns = run(&seed, &d, 1);
             me = ref_error(&seed, &d, 64, &rms);
             printf("| 4096x4096 linear, %d levels, --lod-bound %g | 800x600 | %.0f (%.1fx "
-                   "64x64) | <= 2x | %.2e (bound %g) | %.2e |\n", levels, bounds[k], ns, ns / ns64s, me,
-                   bounds[k], rms);
+                   "64x64) | <= 2x | %.2e (bound %g) | %.2e |\n", levels, bounds[k], ns,
+                   ns / ns64s, me, bounds[k], rms);
         }
         fp_fogmap_release(&st);
         free(img);
