@@ -36,6 +36,11 @@ const fp_option_t fp_fogmap_options[] = {
       NULL, 0 },
     { "lod-footprint", 0, FP_OPT_REAL, FM(lod_footprint), 0, 0, "0", 0, 1e4, NULL, "PX",
       "drop a detail level where its cells project below PX pixels (0 = off)", NULL, 0 },
+    { "lod-bound", 0, FP_OPT_REAL, FM(lod_bound), 0, 0, "0", 0, 1, NULL, "DTAU",
+      "walk a coarser sum of levels wherever the finer levels cannot change a ray's "
+      "transmittance by more than DTAU in all (each cell bounds them by their largest "
+      "coefficients reaching it, weighted by the height profile and the transmittance so "
+      "far; 0 = exact)", NULL, 0 },
     { "min-transmittance", 0, FP_OPT_REAL, FM(min_transmittance), 0, 0, "0", 0, 1, NULL, "T",
       "stop integrating a ray once its transmittance is below T (0 = never)", NULL, 0 },
     { "integrator", 0, FP_OPT_ENUM, FM(integrator), 0, 0, "exact", 0, 0,
@@ -48,7 +53,8 @@ const fp_option_t fp_fogmap_options[] = {
     { "jitter", 0, FP_OPT_FLAG, FM(jitter), 0, 0, NULL, 0, 1, NULL, NULL,
       "offset the march samples per pixel (the same pattern every frame)", NULL, 0 },
     { "sparse", 0, FP_OPT_ENUM, FM(sparse), 0, 0, "on", 0, 0, "off|on", NULL,
-      "skip blocks of zero coefficients while walking the grid (exact)", NULL, 0 },
+      "skip blocks of zero coefficients while walking each level's grid (exact; the "
+      "level-by-level walk of --deconstruct off)", NULL, 0 },
     { "deconstruct", 0, FP_OPT_ENUM, FM(deconstruct), 0, 0, "on", 0, 0, "off|on", NULL,
       "turn detail bands back into one B-spline surface per level (seed 000 sec. 4.4); off "
       "expands the raw bands on the fly (slower, for comparison)", NULL, 0 },
@@ -120,6 +126,154 @@ static size_t band_size(const fp_fogmap_t *m, int l)
     return (size_t)m->band[l][0].nx * m->band[l][0].ny;
 }
 
+/* A coarse level's surface refined onto the grid twice as fine, added to
+ * `out` (nx x ny = 2 cnx x 2 cny, periodic): coarse basis i is
+ * sum_k tap[k - lo] f_{2i+k} (filters/wavelet.h), along U then V. */
+static int refine_add(const double *coarse, int cnx, int cny, const fp_wavelet_filter_t *f,
+                      double *out)
+{
+    int nx = 2 * cnx, ny = 2 * cny;
+    double *tmp = calloc((size_t)nx * cny, sizeof *tmp);
+    if (!tmp)
+        return fp_error("fogmap: out of memory");
+    for (int j = 0; j < cny; j++)
+        for (int i = 0; i < cnx; i++) {
+            double c = coarse[(size_t)j * cnx + i];
+            if (c == 0)
+                continue;
+            for (int k = f->lo; k <= f->hi; k++)
+                tmp[(size_t)j * nx + ((2 * i + k) % nx + nx) % nx] += c * f->tap[k - f->lo];
+        }
+    for (int j = 0; j < cny; j++)
+        for (int k = f->lo; k <= f->hi; k++) {
+            double w = f->tap[k - f->lo];
+            double *o = out + (size_t)(((2 * j + k) % ny + ny) % ny) * nx;
+            const double *r = tmp + (size_t)j * nx;
+            for (int i = 0; i < nx; i++)
+                o[i] += w * r[i];
+        }
+    free(tmp);
+    return FP_OK;
+}
+
+/* The sums A_l = S_0 + ... + S_l, each on level l's grid, for the walk of
+ * kernels/fog_core.h (fp_grid_walk): *a holds A_1 .. A_{nl-2} one after
+ * another (A_0 is level 0, A_{nl-1} the padded fogmap itself); tail[l]
+ * the sum of max |coef| of the levels finer than l. */
+static int approx_levels(const fp_fogmap_t *m, float **a, size_t *na, double *tail)
+{
+    int nl = m->num_levels;
+    *a = NULL;
+    *na = 0;
+    tail[nl - 1] = 0;
+    for (int l = nl - 2; l >= 0; l--) {
+        double amax = 0;
+        const fp_fog_level_t *lv = &m->level[l + 1];
+        for (size_t i = 0; i < (size_t)lv->nx * lv->ny; i++)
+            amax = fmax(amax, fabs(lv->coef[i]));
+        tail[l] = tail[l + 1] + amax;
+    }
+    for (int l = 1; l + 1 < nl; l++)
+        *na += (size_t)m->level[l].nx * m->level[l].ny;
+    if (*na == 0)
+        return FP_OK;
+    *a = malloc(*na * sizeof **a);
+    const fp_fog_level_t *l0 = &m->level[0];
+    double *prev = malloc((size_t)l0->nx * l0->ny * sizeof *prev);
+    if (!*a || !prev) {
+        free(prev);
+        free(*a);
+        *a = NULL;
+        return fp_error("fogmap: out of memory");
+    }
+    for (size_t i = 0; i < (size_t)l0->nx * l0->ny; i++)
+        prev[i] = l0->coef[i];
+    size_t at = 0;
+    for (int l = 1; l + 1 < nl; l++) {
+        const fp_fog_level_t *lv = &m->level[l], *up = &m->level[l - 1];
+        size_t n = (size_t)lv->nx * lv->ny;
+        double *cur = calloc(n, sizeof *cur);
+        if (!cur || lv->nx != 2 * up->nx || lv->ny != 2 * up->ny ||
+            refine_add(prev, up->nx, up->ny, &m->synth[0], cur)) {
+            free(cur);
+            free(prev);
+            free(*a);
+            *a = NULL;
+            return fp_error("fogmap: cannot sum the levels (%dx%d under %dx%d)", lv->nx, lv->ny,
+                            up->nx, up->ny);
+        }
+        for (size_t i = 0; i < n; i++) {
+            cur[i] += lv->coef[i];
+            (*a)[at + i] = (float)cur[i];
+        }
+        at += n;
+        free(prev);
+        prev = cur;
+    }
+    free(prev);
+    return FP_OK;
+}
+
+/* For --lod-bound: per cell of level l's grid, l = 0..nl-2, a bound of
+ * |F - A_l| there: t_l(cell) = max over the 4 cells under it of
+ * (max |coef| of level l+1 reaching that cell + t_{l+1}), t_{nl-1} = 0.
+ * *tm holds t_0 .. t_{nl-2} one after another. */
+static int tail_maps(const fp_fogmap_t *m, float **tm, size_t *ntm)
+{
+    int nl = m->num_levels, d = m->degree, first = d / 2;
+    *tm = NULL;
+    *ntm = 0;
+    for (int l = 0; l + 1 < nl; l++)
+        *ntm += (size_t)m->level[l].nx * m->level[l].ny;
+    if (*ntm == 0)
+        return FP_OK;
+    *tm = calloc(*ntm, sizeof **tm);
+    float *a = NULL;
+    if (*tm)
+        a = malloc((size_t)m->level[nl - 1].nx * m->level[nl - 1].ny * sizeof *a);
+    if (!*tm || !a) {
+        free(*tm);
+        *tm = NULL;
+        return fp_error("fogmap: out of memory");
+    }
+    size_t off[FP_MAX_LEVELS + 1], at = 0;
+    for (int l = 0; l + 1 < nl; l++) {
+        off[l] = at;
+        at += (size_t)m->level[l].nx * m->level[l].ny;
+    }
+    for (int l = nl - 2; l >= 0; l--) {
+        const fp_fog_level_t *fine = &m->level[l + 1];
+        int fx = fine->nx, fy = fine->ny;
+        /* a: level l+1's largest |coef| over each of its cells, plus t_{l+1}. */
+        for (int mm = 0; mm < fy; mm++)
+            for (int k = 0; k < fx; k++) {
+                float v = 0;
+                for (int j = 0; j <= d; j++)
+                    for (int i = 0; i <= d; i++) {
+                        int kw = ((k - first + i) % fx + fx) % fx;
+                        int mw = ((mm - first + j) % fy + fy) % fy;
+                        v = fmaxf(v, fabsf(fine->coef[(size_t)mw * fx + kw]));
+                    }
+                if (l + 2 < nl)
+                    v += (*tm)[off[l + 1] + (size_t)mm * fx + k];
+                a[(size_t)mm * fx + k] = v;
+            }
+        int cx = m->level[l].nx, cy = m->level[l].ny;
+        float *out = *tm + off[l];
+        for (int mm = 0; mm < cy; mm++)
+            for (int k = 0; k < cx; k++) {
+                float v = 0;
+                for (int j = 0; j < 2; j++)
+                    for (int i = 0; i < 2; i++)
+                        v = fmaxf(v, a[(size_t)(2 * mm + j) * fx + 2 * k + i]);
+                /* Rounded up past float's rounding of the sums. */
+                out[(size_t)mm * cx + k] = v * (1 + 1e-5f);
+            }
+    }
+    free(a);
+    return FP_OK;
+}
+
 static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_fog,
                         int deconstruct, fp_fog_tables_t *t)
 {
@@ -133,11 +287,24 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
         ncoef += !deconstruct && l > 0 ? 3 * band_size(m, l) : (size_t)lv->nx * lv->ny;
         nocc += (size_t)(lv->nx / b) * (lv->ny / b);
     }
-    t->coef = malloc(ncoef * sizeof(float));
+    float *approx = NULL;
+    size_t napprox = 0;
+    double tail[FP_LEVEL_TABLE] = { 0 };
+    float *tmaps = NULL;
+    size_t ntmaps = 0;
+    if (deconstruct && approx_levels(m, &approx, &napprox, tail))
+        return FP_ERR;
+    if (deconstruct && tail_maps(m, &tmaps, &ntmaps)) {
+        free(approx);
+        return FP_ERR;
+    }
+    t->coef = malloc((ncoef + napprox + ntmaps) * sizeof(float));
     t->occ = malloc(nocc + 1);
     fine.coef = padded_fine(img, m);
     if (!t->coef || !t->occ || !fine.coef) {
         free(fine.coef);
+        free(approx);
+        free(tmaps);
         return fp_error("fogmap: out of memory");
     }
     size_t co = 0, oo = 0;
@@ -171,6 +338,35 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
         }
     }
     free(fine.coef);
+    /* The walk's surfaces: A_0 = level 0, A_{nl-1} = the fine grid (row nl),
+     * the others after every level's coefficients; none with raw bands. */
+    size_t ao = co, to = co + napprox;
+    for (int l = 0; l < nl; l++) {
+        int *li = t->lvi + l * FP_LI_STRIDE;
+        t->lvf[l * FP_LR_STRIDE + FP_LR_TAIL] = tail[l] * (1 + 1e-6);
+        li[FP_LI_TMAP] = -1;
+        if (deconstruct && l + 1 < nl) {
+            li[FP_LI_TMAP] = (int)to;
+            to += (size_t)li[FP_LI_NX] * li[FP_LI_NY];
+        }
+        if (!deconstruct) {
+            li[FP_LI_APPROX] = -1;
+        } else if (l == 0) {
+            li[FP_LI_APPROX] = li[FP_LI_COEF];
+        } else if (l == nl - 1) {
+            li[FP_LI_APPROX] = t->lvi[nl * FP_LI_STRIDE + FP_LI_COEF];
+        } else {
+            li[FP_LI_APPROX] = (int)ao;
+            ao += (size_t)li[FP_LI_NX] * li[FP_LI_NY];
+        }
+    }
+    if (napprox)
+        memcpy(t->coef + co, approx, napprox * sizeof(float));
+    if (ntmaps)
+        memcpy(t->coef + co + napprox, tmaps, ntmaps * sizeof(float));
+    free(approx);
+    free(tmaps);
+    ncoef += napprox + ntmaps;
     static _Atomic unsigned long serial;
     t->serial = ++serial;
     t->nlevels = nl;
@@ -329,6 +525,7 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
     v[FP_F_WRAP] = m->wrap;
     v[FP_F_NLEVELS] = m->num_levels;
     v[FP_F_LOD_MU] = fm->lod_mu;
+    v[FP_F_LOD_BOUND] = fm->lod_bound;
     v[FP_F_OD_MAX] = fm->min_transmittance > 0 ? -log(fm->min_transmittance) : INFINITY;
     /* Unbounded rays (clamp, repeat) that never leave the fog: integrate
      * 64 fogmap widths, far past any transmittance that shows. */

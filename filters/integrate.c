@@ -12,7 +12,7 @@
 
 _Static_assert(FP_F_COUNT == FP_F_COUNT_, "fog parameter count");
 _Static_assert(FP_MAX_LEVELS_ALL == FP_LEVEL_TABLE, "level table size");
-_Static_assert(FP_LI_STRIDE == 8 && FP_LR_STRIDE == 4, "level table strides");
+_Static_assert(FP_LI_STRIDE == 8 && FP_LR_STRIDE == 8, "level table strides");
 
 static int set_visibility(fp_params_t *p, const fp_option_t *o, const char *value)
 {
@@ -203,7 +203,8 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s)
     s->lvi = clCreateBuffer(ctx, CL_MEM_READ_ONLY, sizeof no_lvi, NULL, &err);
     if (fp_cl_check(err, "integrate: level buffer"))
         return FP_ERR;
-    s->lvf = clCreateBuffer(ctx, CL_MEM_READ_ONLY, FP_LEVEL_TABLE * 4 * sizeof(float), NULL, &err);
+    s->lvf = clCreateBuffer(ctx, CL_MEM_READ_ONLY, FP_LEVEL_TABLE * FP_LR_STRIDE * sizeof(float),
+                            NULL, &err);
     return fp_cl_check(err, "integrate: level buffer");
 }
 
@@ -253,8 +254,8 @@ static int upload_tables(fp_integrate_cl_t *s, const fp_fog_tables_t *t)
     s->occ = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, nocc, (void *)occ, &err);
     if (fp_cl_check(err, "integrate: fogmap occupancy"))
         return FP_ERR;
-    float lvf[FP_LEVEL_TABLE * 4];
-    for (int i = 0; i < FP_LEVEL_TABLE * 4; i++)
+    float lvf[FP_LEVEL_TABLE * FP_LR_STRIDE];
+    for (int i = 0; i < FP_LEVEL_TABLE * FP_LR_STRIDE; i++)
         lvf[i] = (float)(t ? t->lvf[i] : 0);
     if (fp_cl_check(clEnqueueWriteBuffer(q, s->lvi, CL_TRUE, 0, sizeof no_lvi, t ? t->lvi : no_lvi,
                                          0, NULL, NULL), "integrate: upload level table") ||

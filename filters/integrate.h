@@ -19,7 +19,7 @@
 typedef struct fp_fog_tables_t {
     int nlevels;                          /* levels summed by the exact integrator */
     int lvi[FP_LEVEL_TABLE * 8];          /* FP_LI_* rows */
-    double lvf[FP_LEVEL_TABLE * 4];       /* FP_LR_* rows */
+    double lvf[FP_LEVEL_TABLE * 8];       /* FP_LR_* rows */
     float *coef;                          /* all levels' coefficients */
     size_t ncoef;
     unsigned char *occ;                   /* occupancy blocks of all levels */

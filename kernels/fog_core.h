@@ -1,9 +1,10 @@
 /* fogpipe: the fog integrals along one view ray, written once and compiled
  * twice: as OpenCL C in single precision (kernels/integrate.cl) and as C in
  * double precision (filters/integrate.c, the reference).  The two differ in
- * precision and in quadrature order only (FP_GL_EXTRA, FP_EXP_STEP); the
- * logic is judged by brute-force quadrature of the fog's definition in the
- * tests (tests/test_integrate.c, tests/test_fogmap.c).
+ * precision and in quadrature order only (FP_GL_EXTRA, FP_EXP_STEP, and for
+ * the one walk per ray FP_SEG_U, FP_SEG_TERMS); the logic is judged by
+ * brute-force quadrature of the fog's definition in the tests
+ * (tests/test_integrate.c, tests/test_fogmap.c).
  *
  * Fog model (DESIGN.md, Conventions):
  *   sigma_t(p) = sigma F(u,v) h(y) + sigma_haze h_haze(y)
@@ -11,8 +12,11 @@
  * wavelet level, seed 000 sec. 4.4), h: 1 below Y0, exp(-(y-Y0)/H) above,
  * 0 above TOP.  Along a ray, within one cell of one level, F is a
  * polynomial of degree 2d in t and h an exponential, so each cell's
- * integral is Gauss-Legendre exact for the polynomial part (DESIGN,
- * Exactness); the exponential is kept smooth by splitting where it varies. */
+ * integral has a closed form (fp_grid_walk: moments of the exponential,
+ * the sum of all levels walked once) or is Gauss-Legendre exact for the
+ * polynomial part (fp_level_integral, level by level for raw bands; the
+ * exponential kept smooth by splitting where it varies) (DESIGN,
+ * Exactness). */
 #ifndef FP_FOG_CORE_H
 #define FP_FOG_CORE_H
 
@@ -36,6 +40,15 @@
 
 #define FP_REAL fp_real
 #include "bspline.h"
+
+/* Always inlined: the walk's helpers, so that the degree becomes a
+ * constant in each copy and their small loops unroll (PoCL and gcc leave
+ * them as calls otherwise). */
+#ifdef __OPENCL_VERSION__
+#define FP_HOT inline __attribute__((always_inline))
+#else
+#define FP_HOT static inline __attribute__((always_inline))
+#endif
 
 /* Layout of the fog parameter array (filled by fp_fog_pack in
  * filters/integrate.c). */
@@ -67,6 +80,8 @@
 #define FP_F_SPARSE 38
 #define FP_F_HAS_MAP 39
 #define FP_F_FOOTPRINT 40 /* --lod-footprint pixels times the angle of one pixel */
+#define FP_F_LOD_BOUND 41 /* --lod-bound: largest change of tau the dropped levels may make
+                             (0 = exact) */
 #define FP_F_TAPS 44     /* synthesis filters for levels kept as raw bands:
                             phi lo, hi, 16 taps; psi lo, hi, 16 taps */
 #define FP_F_COUNT 80
@@ -78,12 +93,16 @@
 #define FP_LI_OCC 3       /* offset into the occupancy buffer */
 #define FP_LI_BLOCK 4     /* cells per occupancy block (divides nx and ny) */
 #define FP_LI_BANDS 5     /* 1: raw LH, HL, HH bands at half resolution, expanded on the fly */
+#define FP_LI_APPROX 6    /* offset of A_l = S_0 + .. + S_l on this level's grid (-1: none) */
+#define FP_LI_TMAP 7      /* offset of the cells' bounds of |F - A_l| (-1: none, 0 there) */
 #define FP_LI_STRIDE 8
 #define FP_LR_CELL 0      /* cell size in domain pixels */
 #define FP_LR_ORIGIN_U 1  /* basis (i,j) centered at origin + cell*(i,j) */
 #define FP_LR_ORIGIN_V 2
 #define FP_LR_LOD_DIST 3  /* cell size in fog units: dropped beyond cell / FP_F_FOOTPRINT */
-#define FP_LR_STRIDE 4
+#define FP_LR_TAIL 4      /* sum of max |coef| of the levels finer than this one: bounds
+                             |F - A_l| (B-splines >= 0 and sum to 1) */
+#define FP_LR_STRIDE 8
 #define FP_MAX_LEVELS_ALL 16   /* levels + coarse + the fine grid for marching */
 
 /* Gauss-Legendre nodes and weights on [0,1], n = 1..8. */
@@ -359,6 +378,327 @@ FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const
     return sum;
 }
 
+/* ------------------------------------------------------------------ */
+/* One walk per ray.  The sum of levels 0..l of the deconstructed fogmap,
+ * A_l, is itself one B-spline surface on level l's grid (each coarser
+ * surface refined onto it, filters/fogmap.c), and every level's knots lie
+ * on the finest grid's, so the ray crosses one grid once: A_{nl-1} = F
+ * (the padded fogmap itself) where every level counts, coarser A_l where
+ * levels are dropped.  A segment is the part of the ray inside one cell
+ * and within one stretch of height over which the exponent of h changes
+ * by at most FP_SEG_U; there F is a polynomial P of degree 2d in the
+ * segment's parameter x in [0, 1] and h = h_a exp(-u x), so
+ *     int P h = h_a len sum_k P_k m_k(u),  m_k(u) = int_0^1 x^k e^(-ux) dx
+ *            = h_a len sum_j (-u)^j / j! sum_k P_k / (k + j + 1),
+ * a series whose first FP_SEG_TERMS terms are exact to the precision:
+ * the omitted rest is below FP_SEG_U^J / J!.  No quadrature, one exp per
+ * segment, no branch around the math. */
+#ifdef __OPENCL_VERSION__
+#define FP_SEG_U 0.25f     /* remainder 0.25^7 / 7! = 1.2e-8 of the segment */
+#define FP_SEG_TERMS 7
+#define FP_SEG_POW2 8      /* FP_SEG_TERMS rounded up to a power of 2 */
+#else
+#define FP_SEG_U 0.25      /* remainder 0.25^13 / 13! = 2e-18 */
+#define FP_SEG_TERMS 13
+#define FP_SEG_POW2 16
+#endif
+
+/* 1 / j!, j = 0..15. */
+FP_TABLE fp_real fp_invfact[16] = {
+    1.0, 1.0, 1.0 / 2, 1.0 / 6, 1.0 / 24, 1.0 / 120, 1.0 / 720, 1.0 / 5040, 1.0 / 40320,
+    1.0 / 362880, 1.0 / 3628800, 1.0 / 39916800, 1.0 / 479001600, 1.0 / 6227020800.0,
+    1.0 / 87178291200.0, 1.0 / 1307674368000.0 };
+
+/* sum_j c[j] z^j, j < FP_SEG_POW2, pairwise (Estrin): a few dependent
+ * steps instead of one per term; c is overwritten. */
+FP_HOT fp_real fp_estrin(fp_real *c, fp_real z)
+{
+    for (int w = FP_SEG_POW2; w > 1; w /= 2) {
+        for (int i = 0; i < w / 2; i++)
+            c[i] = c[2 * i] + c[2 * i + 1] * z;
+        z *= z;
+    }
+    return c[0];
+}
+
+/* 1 / n, n = 1..24. */
+FP_TABLE fp_real fp_recip[24] = {
+    1.0, 1.0 / 2, 1.0 / 3, 1.0 / 4, 1.0 / 5, 1.0 / 6, 1.0 / 7, 1.0 / 8, 1.0 / 9, 1.0 / 10,
+    1.0 / 11, 1.0 / 12, 1.0 / 13, 1.0 / 14, 1.0 / 15, 1.0 / 16, 1.0 / 17, 1.0 / 18, 1.0 / 19,
+    1.0 / 20, 1.0 / 21, 1.0 / 22, 1.0 / 23, 1.0 / 24 };
+
+/* Uniform B-spline blending polynomials in the power basis (bspline.h,
+ * fp_bspline_poly): weight j of degree d is sum_p fp_bsp_a[d][j * 4 + p] s^p. */
+FP_TABLE fp_real fp_bsp_a[4][16] = {
+    { 1, 0, 0, 0 },
+    { 1, -1, 0, 0, 0, 1, 0, 0 },
+    { 0.5, -1, 0.5, 0, 0.5, 1, -1, 0, 0, 0, 0.5, 0 },
+    { 1.0 / 6, -0.5, 0.5, -1.0 / 6, 2.0 / 3, 0, -1, 0.5, 1.0 / 6, 0.5, 0.5, -0.5,
+      0, 0, 0, 1.0 / 6 } };
+
+/* int_0^1 P(x) exp(-u x) dx for P of degree 2d (coefficients P[0..2d]),
+ * |u| <= FP_SEG_U. */
+FP_HOT fp_real fp_poly_exp_integral(const fp_real *P, const int d, fp_real u)
+{
+    fp_real c[FP_SEG_POW2];
+    for (int j = 0; j < FP_SEG_POW2; j++) {
+        fp_real s = 0;
+        for (int k = 0; k <= 2 * d; k++)
+            s += P[k] * fp_recip[k + j];
+        c[j] = j < FP_SEG_TERMS ? s * fp_invfact[j] : (fp_real)0;
+    }
+    return fp_estrin(c, -u);
+}
+
+/* The surface along one segment as a polynomial in x in [0, 1]: local
+ * cell coordinates (px + qx x, py + qy x), coefficients c[j * 4 + i]. */
+FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, fp_real py,
+                        fp_real qy, fp_real *P)
+{
+    /* g[q][p]: the cell's surface as sum g_qp sx^p sy^q. */
+    fp_real g[4][4];
+    for (int q = 0; q <= d; q++)
+        for (int p = 0; p <= d; p++) {
+            fp_real acc = 0;
+            for (int j = 0; j <= d; j++) {
+                fp_real row = 0;
+                for (int i = 0; i <= d; i++)
+                    row += c[j * 4 + i] * fp_bsp_a[d][i * 4 + p];
+                acc += fp_bsp_a[d][j * 4 + q] * row;
+            }
+            g[q][p] = acc;
+        }
+    /* Horner along sy of Horner along sx, each a polynomial in x. */
+    for (int k = 0; k < 7; k++)
+        P[k] = 0;
+    for (int q = d; q >= 0; q--) {
+        fp_real r[4];
+        r[0] = g[q][d];
+        for (int k = 1; k < 4; k++)
+            r[k] = 0;
+        for (int p = d - 1; p >= 0; p--) {
+            for (int k = d; k >= 1; k--)
+                r[k] = px * r[k] + qx * r[k - 1];
+            r[0] = px * r[0] + g[q][p];
+        }
+        /* P = P * (py + qy x) + r */
+        for (int k = 2 * d; k >= 1; k--)
+            P[k] = py * P[k] + qy * P[k - 1];
+        P[0] = py * P[0];
+        for (int k = 0; k <= d; k++)
+            P[k] += r[k];
+    }
+}
+
+/* Bounded level of detail (--lod-bound).  Each cell of level l's grid
+ * carries a bound of |F - A_l| there (the sum over the finer levels of
+ * their largest |coefficient| reaching the cell; B-splines are >= 0 and
+ * sum to 1; filters/fogmap.c), so a segment integrated on A_l instead of
+ * F changes the optical depth by at most D = sigma bound w, w >= int h
+ * over the segment, and tau by at most exp(-od) D exp(2 D), od the
+ * optical depth computed before it (|tau - tau'| <= sum_i exp(-od'_<i)
+ * exp(|da_i|) |da_i| telescoping, and od' falls at most by the D's).  A
+ * segment is kept on the coarse grid only while these costs stay within
+ * the bound times the share of the path's weight done; otherwise the walk
+ * goes one level finer there, and tries one coarser every 8 segments. */
+typedef struct fp_lod_t {
+    fp_real bound;     /* largest |dtau| allowed in all (0: exact) */
+    fp_real spent;     /* the costs of the segments done */
+    fp_real sigma;
+    fp_real wdone;     /* their weights (upper bounds of int h) */
+    fp_real wtot;      /* an upper bound of int h over the whole ray */
+} fp_lod_t;
+
+/* Weight of the path over [t, end], int h: an upper bound (h is monotone
+ * along a straight path). */
+FP_FN fp_real fp_rest_weight(fp_real y0, fp_real H, const fp_path_t *p, fp_real t, fp_real end)
+{
+    fp_real ya = p->oy + t * p->dy, yb = p->oy + end * p->dy;
+    fp_real low = fmin(ya, yb);
+    fp_real hmax = exp(-fmax(low - y0, (fp_real)0) / H);
+    fp_real len = end - t;
+    /* Exact above Y0 on the rising or falling exponential: |h_a - h_b| H / |dy|. */
+    fp_real ha = exp(-fmax(ya - y0, (fp_real)0) / H), hb = exp(-fmax(yb - y0, (fp_real)0) / H);
+    fp_real below = p->dy == 0 ? (ya < y0 ? len : (fp_real)0)
+                               : fmin(fmax((y0 - low) / fabs(p->dy), (fp_real)0), len);
+    fp_real above = p->dy == 0 || !isfinite(H) ? (len - below) * fmax(ha, hb)
+                                               : fabs(ha - hb) * H / fabs(p->dy);
+    return fmin(len * hmax, below + above) * (1 + (fp_real)1e-5);
+}
+
+/* What a segment of weight w may cost: the bound's share of the weight
+ * done, or what is left of the bound spread over the weight left, the
+ * larger; either keeps the sum of the costs within the bound. */
+FP_FN fp_real fp_lod_allowed(const fp_lod_t *lod, fp_real w)
+{
+    fp_real share = lod->bound * fmin((fp_real)1, (lod->wdone + w) / lod->wtot) - lod->spent;
+    fp_real left = (lod->bound - lod->spent) * fmin((fp_real)1, w / (lod->wtot - lod->wdone));
+    return fmax(share, left);
+}
+
+/* The cell bound of level L's grid at cell (k, m) (0 on the finest). */
+FP_FN fp_real fp_lod_tmap(FP_CONSTANT const int *lvi, FP_GLOBAL const float *coef, int L, int k,
+                          int m)
+{
+    int off = lvi[L * FP_LI_STRIDE + FP_LI_TMAP];
+    if (off < 0)
+        return 0;
+    int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
+    return coef[off + (size_t)fp_wrap_index(m, ny) * nx + fp_wrap_index(k, nx)];
+}
+
+/* Integral of A_L times h(y) along p over [a, b], segment by segment (2D
+ * DDA over the cells plus cuts at Y0 and every FP_SEG_U of the exponent),
+ * until b, until the optical depth passes od_stop, or (lod->bound > 0)
+ * until a coarser level may take over: *t_end and *L_next say where and
+ * which.  `od` is the optical depth before a (for the bound). */
+FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                           FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                           const int d, int L, int finer, const fp_path_t *p, fp_real a,
+                           fp_real b, fp_real od, fp_real od_stop, fp_lod_t *lod, fp_real *t_end,
+                           int *L_next)
+{
+    int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
+    FP_GLOBAL const float *cf = coef + lvi[L * FP_LI_STRIDE + FP_LI_APPROX];
+    fp_real cell = lvf[L * FP_LR_STRIDE + FP_LR_CELL];
+    fp_real kappa = (d & 1) ? (fp_real)0 : (fp_real)0.5;
+    fp_real xs = (p->u0 - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cell + kappa;
+    fp_real ys = (p->v0 - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cell + kappa;
+    fp_real dxdt = p->du / cell, dydt = p->dv / cell;
+    fp_real y0 = fp[FP_F_Y0], H = fp[FP_F_H];
+    fp_real lam = p->dy / H;
+    /* Longest segment for which |u| <= FP_SEG_U. */
+    fp_real lmax = lam != 0 ? FP_SEG_U / fabs(lam) : FP_INF;
+    /* Where the path crosses Y0 (the kink of h). */
+    fp_real tc = p->dy != 0 ? (y0 - p->oy) / p->dy : -FP_INF;
+    int sx = dxdt > 0 ? 1 : -1, sy = dydt > 0 ? 1 : -1;
+    fp_real ix = dxdt != 0 ? 1 / dxdt : 0, iy = dydt != 0 ? 1 / dydt : 0;
+    int k = fp_cell_of(xs + a * dxdt, dxdt), m = fp_cell_of(ys + a * dydt, dydt);
+    int first = d / 2;
+    /* Wrapped index of the cell's first coefficient column and row. */
+    int kw = fp_wrap_index(k - first, nx), mw = fp_wrap_index(m - first, ny);
+    fp_real tx = dxdt != 0 ? (k + (dxdt > 0) - xs) * ix : FP_INF;
+    fp_real ty = dydt != 0 ? (m + (dydt > 0) - ys) * iy : FP_INF;
+    fp_real t = a, sum = 0, od0 = od, hc = 1;
+    int bounded = lod->bound > 0 && finer && lvi[L * FP_LI_STRIDE + FP_LI_TMAP] >= 0;
+    int coarser = lod->bound > 0 && L > 0;
+    *L_next = L;
+    for (int guard = 0; t < b && od0 + sum <= od_stop && guard < (1 << 24); guard++) {
+        fp_real tn = fmin(fmin(tx, ty), fmin(b, t + lmax));
+        tn = tc > t && tc < tn ? tc : tn;
+        tn = fmax(tn, t);
+        fp_real len = tn - t;
+        /* The cell's coefficients. */
+        fp_real c[16];
+        for (int j = 0; j <= d; j++) {
+            int mj = mw + j;
+            mj = mj >= ny ? mj % ny : mj;   /* % only on grids narrower than d + 1 */
+            FP_GLOBAL const float *row = cf + (size_t)mj * nx;
+            for (int i = 0; i <= d; i++) {
+                int ki = kw + i;
+                ki = ki >= nx ? ki % nx : ki;
+                c[j * 4 + i] = row[ki];
+            }
+        }
+        fp_real px = xs + t * dxdt - k, qx = dxdt * len, py = ys + t * dydt - m, qy = dydt * len;
+        fp_real ya = p->oy + t * p->dy;
+        int above = (p->oy + (t + (fp_real)0.5 * len) * p->dy) > y0;
+        fp_real u = above ? lam * len : (fp_real)0;
+        /* h at the segment's start: carried from the last segment's end
+         * (times exp(-u), from the same series), exact every 8th. */
+        if ((guard & 7) == 0)
+            hc = exp(-fmax(ya - y0, (fp_real)0) / H);
+        fp_real ha = hc, E = 1;
+        fp_real seg;
+        if (d == 1) {
+            /* Bilinear: F = g0 + g1 sx + g2 sy + g3 sx sy, written out. */
+            fp_real g1 = c[1] - c[0], g2 = c[4] - c[0], g3 = c[5] - c[4] - g1;
+            fp_real P0 = c[0] + g1 * px + (g2 + g3 * px) * py;
+            fp_real P1 = g1 * qx + g2 * qy + g3 * (px * qy + qx * py);
+            fp_real P2 = g3 * qx * qy;
+            fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
+            for (int j = 0; j < FP_SEG_POW2; j++) {
+                fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
+                cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
+                ce[j] = f;
+            }
+            seg = fp_estrin(cs, -u);
+            E = fp_estrin(ce, -u);
+        } else {
+            fp_real P[7];
+            fp_cell_poly(d, c, px, qx, py, qy, P);
+            seg = fp_poly_exp_integral(P, d, u);
+            E = exp(-u);
+        }
+        if (bounded) {
+            /* What integrating this segment on A_L instead of F may cost. */
+            fp_real w = len * fmax(ha, ha * E);
+            fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L, k, m) * w;
+            fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
+            if (!(cost <= fp_lod_allowed(lod, w))) {
+                *L_next = L + 1;   /* again from t, one level finer */
+                break;
+            }
+            lod->spent += cost;
+            lod->wdone += w;
+        }
+        sum += ha * len * seg;
+        hc = ha * E;
+        /* Step to the next cell where the segment ended on its edge. */
+        int stepx = tx <= tn, stepy = ty <= tn;
+        k += stepx ? sx : 0;
+        kw += stepx ? sx : 0;
+        kw = kw >= nx ? kw - nx : kw < 0 ? kw + nx : kw;
+        tx = stepx ? (k + (dxdt > 0) - xs) * ix : tx;
+        m += stepy ? sy : 0;
+        mw += stepy ? sy : 0;
+        mw = mw >= ny ? mw - ny : mw < 0 ? mw + ny : mw;
+        ty = stepy ? (m + (dydt > 0) - ys) * iy : ty;
+        t = tn;
+        if (coarser && (guard & 7) == 7 && t < b) {
+            /* One level coarser where its cell's bound would have let this
+             * segment through with room for 8 of them. */
+            fp_real cc = lvf[(L - 1) * FP_LR_STRIDE + FP_LR_CELL];
+            fp_real xc = (p->u0 + t * p->du - lvf[(L - 1) * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cc +
+                         kappa;
+            fp_real yc = (p->v0 + t * p->dv - lvf[(L - 1) * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cc +
+                         kappa;
+            fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L - 1, fp_cell_of(xc, p->du),
+                                                 fp_cell_of(yc, p->dv)) * len * fmax(hc, ha);
+            fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
+            if (8 * cost <= fp_lod_allowed(lod, 8 * len * fmax(hc, ha))) {
+                *L_next = L - 1;
+                break;
+            }
+        }
+    }
+    *t_end = t;
+    return sum;
+}
+
+/* fp_grid_walk with the degree a constant, so that its loops unroll. */
+FP_FN fp_real fp_grid_walk_any(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                               FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                               int d, int L, int finer, const fp_path_t *p, fp_real a,
+                               fp_real b, fp_real od, fp_real od_stop, fp_lod_t *lod,
+                               fp_real *t_end, int *L_next)
+{
+    switch (d) {
+    case 0:
+        return fp_grid_walk(fp, lvi, lvf, coef, 0, L, finer, p, a, b, od, od_stop, lod, t_end,
+                            L_next);
+    case 1:
+        return fp_grid_walk(fp, lvi, lvf, coef, 1, L, finer, p, a, b, od, od_stop, lod, t_end,
+                            L_next);
+    case 2:
+        return fp_grid_walk(fp, lvi, lvf, coef, 2, L, finer, p, a, b, od, od_stop, lod, t_end,
+                            L_next);
+    default:
+        return fp_grid_walk(fp, lvi, lvf, coef, 3, L, finer, p, a, b, od, od_stop, lod, t_end,
+                            L_next);
+    }
+}
+
 /* F at a domain point from one level (the fine grid, for marching). */
 FP_FN fp_real fp_level_eval(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                             FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef, int l,
@@ -441,6 +781,24 @@ FP_FN int fp_haze_span(FP_CONSTANT const fp_real *fp, fp_real oy, fp_real dy, fp
     *ta = a;
     *tb = b;
     return b > a;
+}
+
+/* Clamp: the straight path of the piece [pa, pb] between box crossings,
+ * with a coordinate outside the box held at the box's edge. */
+FP_FN void fp_clamp_piece(FP_CONSTANT const fp_real *fp, const fp_path_t *p, fp_real pa,
+                          fp_real pb, fp_path_t *q)
+{
+    *q = *p;
+    fp_real tm = (fp_real)0.5 * (pa + pb);
+    fp_real um = p->u0 + tm * p->du, vm = p->v0 + tm * p->dv;
+    if (um < fp[FP_F_CLIP] || um > fp[FP_F_CLIP + 1]) {
+        q->u0 = um < fp[FP_F_CLIP] ? fp[FP_F_CLIP] : fp[FP_F_CLIP + 1];
+        q->du = 0;
+    }
+    if (vm < fp[FP_F_CLIP + 2] || vm > fp[FP_F_CLIP + 3]) {
+        q->v0 = vm < fp[FP_F_CLIP + 2] ? fp[FP_F_CLIP + 2] : fp[FP_F_CLIP + 3];
+        q->dv = 0;
+    }
 }
 
 /* Optical depth of the fogmap part along the fog-space ray o + t dir,
@@ -534,23 +892,43 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
     }
     cuts[ncut++] = b;
     fp_real od = 0;
-    for (int piece = 0; piece + 1 < ncut; piece++) {
+    /* One walk per ray when every level has its sum surface A_l (not with
+     * raw bands): A_L over [dmax[L+1], dmax[L]), L falling with t. */
+    int walk = lvi[FP_LI_APPROX] >= 0;
+    fp_lod_t lod;
+    lod.bound = fp[FP_F_LOD_BOUND];
+    lod.spent = 0;
+    lod.sigma = sigma;
+    lod.wdone = 0;
+    lod.wtot = lod.bound > 0 ? fp_rest_weight(fp[FP_F_Y0], fp[FP_F_H], &p, a, b) : 1;
+    /* Bounded: from the coarsest grid, finer where the bound asks. */
+    int L = lod.bound > 0 ? 0 : nl - 1, d = (int)fp[FP_F_DEGREE];
+    for (int piece = 0; walk && piece + 1 < ncut && od <= od_max; piece++) {
+        fp_real t = cuts[piece], pb = cuts[piece + 1];
+        fp_path_t q = p;
+        if (wrap == 1)
+            fp_clamp_piece(fp, &p, t, pb, &q);
+        for (int pass = 0; t < pb && od <= od_max && pass < (1 << 20); pass++) {
+            /* The finest level --lod-mu and --lod-footprint keep at t. */
+            int Lcap = nl - 1;
+            while (Lcap > 0 && !(t < dmax[Lcap]))
+                Lcap--;
+            L = L < Lcap ? L : Lcap;
+            fp_real te;
+            int Ln;
+            od += fp_grid_walk_any(fp, lvi, lvf, coef, d, L, L < Lcap, &q, t, fmin(pb, dmax[L]),
+                                   od, od_max, &lod, &te, &Ln);
+            L = Ln;
+            t = te;
+        }
+    }
+    for (int piece = 0; !walk && piece + 1 < ncut; piece++) {
         fp_real pa = cuts[piece], pb = cuts[piece + 1];
         if (!(pb > pa))
             continue;
         fp_path_t q = p;
-        if (wrap == 1) {
-            fp_real tm = (fp_real)0.5 * (pa + pb);
-            fp_real um = p.u0 + tm * p.du, vm = p.v0 + tm * p.dv;
-            if (um < fp[FP_F_CLIP] || um > fp[FP_F_CLIP + 1]) {
-                q.u0 = um < fp[FP_F_CLIP] ? fp[FP_F_CLIP] : fp[FP_F_CLIP + 1];
-                q.du = 0;
-            }
-            if (vm < fp[FP_F_CLIP + 2] || vm > fp[FP_F_CLIP + 3]) {
-                q.v0 = vm < fp[FP_F_CLIP + 2] ? fp[FP_F_CLIP + 2] : fp[FP_F_CLIP + 3];
-                q.dv = 0;
-            }
-        }
+        if (wrap == 1)
+            fp_clamp_piece(fp, &p, pa, pb, &q);
         /* Early termination needs the sum of all levels, which alone is
          * non-negative: walk the path in chunks of one coarse cell, add
          * every level over each chunk, then test. */

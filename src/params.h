@@ -71,6 +71,7 @@ typedef struct fp_fogmap_params_t {
     int levels;
     double lod_mu;
     double lod_footprint; /* pixels */
+    double lod_bound;     /* largest |dtau| the dropped levels may make (0: exact) */
     double min_transmittance;
     int integrator;
     int steps;

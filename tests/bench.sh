@@ -18,6 +18,8 @@ trap 'rm -rf "$tmp"' EXIT
   echo
   "$FP_BENCH_FOG" "$tmp/seed/scene.0001.exr"
   echo
+  "$FP_BENCH_FOGMAP" "$tmp/hd/scene.0001.exr" "$tmp/seed/scene.0001.exr"
+  echo
   "$FP_BENCH_LIGHT" "$tmp/light/scene.0001.exr" "$tmp/light/shadow.0001.exr" "$tmp/light/fogmap.exr"
   echo
   "$FP_BENCH_LOOKS" "$tmp/hd" "$tmp/looks" && echo   # issue 12: the looks against their goals

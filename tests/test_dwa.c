@@ -660,7 +660,9 @@ static void test_roundtrip(void **state)
             check_attrs(&r, 0);
             exr_lineorder_t lo;
             assert_int_equal(exr_get_lineorder(r.ctx, 0, &lo), 0);
-            assert_int_equal((int) lo, orders[oi]);
+            /* Line order is normalized to increasing on output (exr_write.c:
+             * the C library stores chunks increasing), DWA included. */
+            assert_int_equal((int) lo, EXR_LINEORDER_INCREASING_Y);
             assert_true(attr_float(&r, 0, "dwaCompressionLevel") == 45.0f);
             const exr_attr_chlist_t *cl;
             assert_int_equal(exr_get_channels(r.ctx, 0, &cl), 0);

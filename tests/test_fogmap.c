@@ -440,6 +440,90 @@ static void test_fast_path_errors(void **state)
     unmake(&st);
 }
 
+
+/* The one walk per ray over the sum surfaces A_l (kernels/fog_core.h,
+ * fp_grid_walk) against the walk of every level on its own grid (the
+ * path of raw bands, run here on the deconstructed levels): the same
+ * integral, with all levels and with levels dropped by --lod-mu and
+ * --lod-footprint (A_l refined from the coarser levels, filters/fogmap.c). */
+static void test_walk_matches_levels(void **state)
+{
+    (void)state;
+    double worst = 0;
+    for (int degree = 0; degree <= 3; degree++)
+        for (int wrap = 0; wrap <= 2; wrap++) {
+            setup_t st;
+            int w = wrap == FP_WRAP_REPEAT ? 32 : 27, h = wrap == FP_WRAP_REPEAT ? 16 : 19;
+            make(&st, w, h, degree, wrap, 3, INFINITY, 0);
+            fp_fog_tables_t levels = *st.d.tables;
+            levels.lvi[FP_LI_APPROX] = -1;          /* no sum surfaces: level by level */
+            for (int lod = 0; lod < 3; lod++) {
+                fp_integrate_data_t a = st.d, b = st.d;
+                b.tables = &levels;
+                if (lod == 1)
+                    a.fp[FP_F_LOD_MU] = b.fp[FP_F_LOD_MU] = 0.6;
+                if (lod == 2)
+                    a.fp[FP_F_FOOTPRINT] = b.fp[FP_F_FOOTPRINT] = 0.05;
+                for (int k = 0; k < 90; k++) {
+                    double o[3], dir[3], len;
+                    random_ray(k, o, dir, &len);
+                    double x = fp_integrate_optical_depth(&a, o, dir, len, 0);
+                    double y = fp_integrate_optical_depth(&b, o, dir, len, 0);
+                    /* The sums are rounded to float like the levels. */
+                    double err = fabs(x - y) / (fabs(y) + 1e-2 * st.p.fog.density * len);
+                    worst = fmax(worst, err);
+                    if (!(err < 1e-6))
+                        fail_msg("degree %d wrap %d lod %d ray %d: one walk %.12g, level by "
+                                 "level %.12g", degree, wrap, lod, k, x, y);
+                }
+            }
+            unmake(&st);
+        }
+    print_message("one walk over the sum surfaces vs level by level: max relative difference "
+                  "%.2e (bound 1e-6)\n", worst);
+}
+
+/* --lod-bound: the levels it drops change tau by at most the bound, on
+ * rays long and dense enough that it drops some (else the test could not
+ * fail). */
+static void test_lod_bound(void **state)
+{
+    (void)state;
+    setup_t st;
+    make(&st, 64, 64, 1, FP_WRAP_REPEAT, 4, INFINITY, 0);
+    /* A smooth fogmap with fine ripples: small detail levels. */
+    for (int j = 0; j < 64; j++)
+        for (int i = 0; i < 64; i++)
+            st.img[j * 64 + i] = (float)(1 + 0.5 * sin(i * 0.2) * cos(j * 0.15) +
+                                         2e-3 * (urand() - 0.5));
+    fp_fogmap_release(&st.s);
+    st.p.fog.density = 0.2;
+    assert_int_equal(fp_integrate_commit(&st.p, &st.d), FP_OK);
+    assert_int_equal(fp_fogmap_setup(&st.p, NULL, st.img, 64, 64, &st.s, &st.d), FP_OK);
+    const double bounds[] = { 1e-3, 1e-4, 1e-5 };
+    for (size_t b = 0; b < 3; b++) {
+        fp_integrate_data_t lod = st.d;
+        lod.fp[FP_F_LOD_BOUND] = bounds[b];
+        double worst = 0;
+        int changed = 0;
+        for (int k = 0; k < 400; k++) {
+            double o[3], dir[3], len;
+            random_ray(k, o, dir, &len);
+            len = k % 4 == 0 ? INFINITY : len * 4;
+            double t = exp(-fp_integrate_optical_depth(&st.d, o, dir, len, 0));
+            double e = fabs(exp(-fp_integrate_optical_depth(&lod, o, dir, len, 0)) - t);
+            worst = fmax(worst, e);
+            changed += e > 0;
+        }
+        print_message("--lod-bound %g: max |dtau| against exact %.2e over 400 rays, %d changed\n",
+                      bounds[b], worst, changed);
+        if (!(worst <= bounds[b]))
+            fail_msg("--lod-bound %g: max |dtau| %.3e", bounds[b], worst);
+        assert_true(changed > 20);
+    }
+    unmake(&st);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -451,6 +535,8 @@ int main(void)
         cmocka_unit_test(test_opencl_parity),
         cmocka_unit_test(test_without_deconstruction),
         cmocka_unit_test(test_fast_path_errors),
+        cmocka_unit_test(test_walk_matches_levels),
+        cmocka_unit_test(test_lod_bound),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
