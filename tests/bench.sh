@@ -16,6 +16,7 @@ trap 'rm -rf "$tmp"' EXIT
   echo "Timings are figures, not pass/fail thresholds. Fog stage times include the upload of"
   echo "the depth and the read-back of the fog layer. 800x600 is the resolution of seed 000."
   echo
+  cat "$(dirname "$0")/bench-before.md"
   "$FP_BENCH_FOG" "$tmp/seed/scene.0001.exr"
   echo
   "$FP_BENCH_FOGMAP" "$tmp/hd/scene.0001.exr" "$tmp/seed/scene.0001.exr"
