@@ -169,6 +169,7 @@ static void test_fog(void **state)
     in.rgba = copy;
     assert_int_equal(fogpipe_apply(fp, &in, copy, NULL, NULL), FOGPIPE_OK);
     assert_memory_equal(copy, out, sizeof out);
+    in.rgba = rgba;
     free(copy);
 
     /* Warnings go to the handler, nothing to stderr. */
