@@ -127,14 +127,14 @@ mkdir -p "$T/absorb"
 # absorb_fog DIR NAME SIGMA OPTIONS...: fogpipe's fog of DIR's plate, then
 # the comparison with Cycles' fog (tests/blender/absorb.awk) in DIR/NAME.txt.
 absorb_fog() {
-  local dir=$1 name=$2 sigma=$3
+  ab_dir=$1 ab_name=$2 ab_sigma=$3
   shift 3
-  "$FOGPIPE" -i "$dir/plate.####.exr" -o "$dir/$name.####.exr" --frames 1 --up z \
-    --density "$sigma" --height 0,inf --fog-color 0,0,0 --float "$@" 2>/dev/null &&
-    for f in plate cycles "$name"; do
-      "$OIIOTOOL" --dumpdata "$dir/$f.0001.exr" | sed -n "s/^ *\(Pixel .*\)/$f \1/p"
-    done | sed "s/^$name /fogpipe /" > "$dir/$name.values" &&
-    awk -v tol=$ATOL -f "$TB/absorb.awk" "$dir/$name.values" > "$dir/$name.txt"
+  "$FOGPIPE" -i "$ab_dir/plate.####.exr" -o "$ab_dir/$ab_name.####.exr" --frames 1 --up z \
+    --density "$ab_sigma" --height 0,inf --fog-color 0,0,0 --float "$@" 2>/dev/null &&
+    for f in plate cycles "$ab_name"; do
+      "$OIIOTOOL" --dumpdata "$ab_dir/$f.0001.exr" | sed -n "s/^ *\(Pixel .*\)/$f \1/p"
+    done | sed "s/^$ab_name /fogpipe /" > "$ab_dir/$ab_name.values" &&
+    awk -v tol=$ATOL -f "$TB/absorb.awk" "$ab_dir/$ab_name.values" > "$ab_dir/$ab_name.txt"
 }
 for v in auto ortho; do
   A="$T/absorb/$v"
@@ -146,11 +146,8 @@ for v in auto ortho; do
   for opt in "" "--albedo 0"; do
     name=fog${opt:+-albedo0}
     # shellcheck disable=SC2086 # $opt: none or one option and its value
-    if absorb_fog "$A" $name $ASIGMA $opt; then
-      ok "$v: fogpipe's fog of the plate (--density $ASIGMA${opt:+ $opt}) is Cycles' within $ATOL"
-    else
-      not_ok "$v: fogpipe's fog of the plate (--density $ASIGMA${opt:+ $opt}) is Cycles' within $ATOL"
-    fi
+    desc="$v: fogpipe's fog of the plate (--density $ASIGMA${opt:+ $opt}) is Cycles' within $ATOL"
+    if absorb_fog "$A" $name $ASIGMA $opt; then ok "$desc"; else not_ok "$desc"; fi
     [ -f "$A/$name.txt" ] && diag "$A/$name.txt"
   done
 done
