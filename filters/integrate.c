@@ -343,8 +343,9 @@ int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                           (float)d->fog_color[2], 0 } };
     if (FP_CL_ARG(s->kernel, 12, color))
         return FP_ERR;
-    /* The 16-lane kernel starts every ray at the camera: orthographic
-     * views (rays from the camera's plane) take the general one. */
+    /* integrate_height's lanes start every ray at the camera: an
+     * orthographic camera's rays start on its plane, and go through
+     * integrate_fog (fp_view_origin_at). */
     if (d->fp[FP_F_HAS_MAP] == 0 && !v->ortho)
         return launch_height(s, v, pix, npix, color, fog);
     return fp_integrate_cl_launch(s, s->kernel, v, pix, npix, fog, "integrate_fog");

@@ -321,6 +321,10 @@ static void test_opencl_height_shapes(void **state)
                 assert_int_equal(make_view(&v, w, h, -4 + 20 * urand(), -30 + 40 * urand()), 0);
                 v.depth_kind = kind;
                 v.far = rep == 1 ? 50 : INFINITY;
+                /* An orthographic view (the same ndc_to_cam read as the
+                 * camera plane's x, y): rays start on the plane, not at
+                 * the camera (fp_view_origin_at). */
+                v.ortho = rep == 3;
                 fp_integrate_data_t d = full_fog(1);
                 for (size_t i = 0; i < n; i++) {
                     double u = urand();
@@ -346,7 +350,8 @@ static void test_opencl_height_shapes(void **state)
                 free(pix);
                 free(lst);
             }
-    print_message("fog without a fogmap, odd sizes, haze, box, depth kinds: OpenCL vs C max "
+    print_message("fog without a fogmap, odd sizes, haze, box, depth kinds, orthographic: "
+                  "OpenCL vs C max "
                   "|difference| %.3g (tolerance 1e-5); lists vs frame %.3g (bound 1e-6)\n",
                   worst, list_worst);
     assert_true(list_worst <= 1e-6);
