@@ -147,21 +147,28 @@ int fp_exr_workers(int64_t pixels, int64_t chunks)
  * started leaves its record to the caller, which runs it after its own:
  * the work is claimed from a shared counter, so fewer threads only take
  * longer. */
-void fp_exr_run_workers(void *(*fn)(void *), void *workers, size_t size,
-                               int n)
+fp_exr_worker_t *fp_exr_run_workers(void *(*fn)(void *), void *job, fp_exr_worker_t *wk, int n)
 {
     pthread_t th[FP_EXR_MAX_THREADS];
     int started[FP_EXR_MAX_THREADS] = { 0 };
-    uint8_t *w = workers;
+    for (int i = 0; i < n; ++i) {
+        wk[i].job = job;
+        wk[i].fail = -1;
+    }
     for (int i = 1; i < n; ++i)
-        started[i] = pthread_create(&th[i], NULL, fn, w + (size_t) i * size) == 0;
-    fn(w);
+        started[i] = pthread_create(&th[i], NULL, fn, &wk[i]) == 0;
+    fn(&wk[0]);
     for (int i = 1; i < n; ++i) {
         if (started[i])
             pthread_join(th[i], NULL);
         else
-            fn(w + (size_t) i * size);
+            fn(&wk[i]);
     }
+    fp_exr_worker_t *first = NULL;
+    for (int i = 0; i < n; ++i)
+        if (wk[i].fail >= 0 && (!first || wk[i].fail < first->fail))
+            first = &wk[i];
+    return first;
 }
 
 static const char *const comp_names[] = {

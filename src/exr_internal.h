@@ -116,9 +116,20 @@ int64_t fp_exr_mem_write(exr_const_context_t ctxt, void *userdata,
 
 /* How many workers a part of `pixels` pixels in `chunks` chunks gets. */
 int fp_exr_workers(int64_t pixels, int64_t chunks);
-/* Run fn on each of the n workers (records of `size` bytes), n - 1 of them
- * on new threads; returns when all are done. */
-void fp_exr_run_workers(void *(*fn)(void *), void *workers, size_t size, int n);
+/* One thread's share of a frame's chunks (decode or encode): the job they
+ * share, and where it failed first. */
+typedef struct fp_exr_worker_t {
+    void *job;
+    int64_t fail;                /* first chunk it failed on, or -1 */
+    exr_result_t rv;
+    char msg[FP_EXR_MSG_LEN];
+} fp_exr_worker_t;
+
+/* Run fn on the n workers wk[] (each given `job`), n - 1 of them on new
+ * threads; returns when all are done, with the worker that failed on the
+ * earliest chunk (so the error does not depend on the thread count), or
+ * NULL. */
+fp_exr_worker_t *fp_exr_run_workers(void *(*fn)(void *), void *job, fp_exr_worker_t *wk, int n);
 
 /* ------------------------------------------------------------ small helpers */
 

@@ -518,13 +518,6 @@ typedef struct dec_job_t {
     atomic_int stop;
 } dec_job_t;
 
-typedef struct dec_worker_t {
-    dec_job_t *job;
-    int64_t fail;                /* first chunk it failed on, or -1 */
-    exr_result_t rv;
-    char msg[FP_EXR_MSG_LEN];
-} dec_worker_t;
-
 /* The colour and depth of a decoded chunk, whose first pixel is (ax, ay),
  * into the frame's floats (the chunk's pixels only, so that workers write
  * apart). */
@@ -565,7 +558,7 @@ static void to_float_rect(fp_frame_t *f, int p, const exr_chunk_info_t *ci,
 
 static void *dec_work(void *arg)
 {
-    dec_worker_t *w = arg;
+    fp_exr_worker_t *w = arg;
     dec_job_t *j = w->job;
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
     int inited = 0;
@@ -601,7 +594,7 @@ static int decode_part(fp_frame_t *f, int p, const char *where, long frame)
     const char *why = NULL;      /* a worker's message, else the frame's */
     exr_chunk_info_t *ci = NULL;
     int *xy = NULL;
-    dec_worker_t *wk = NULL;
+    fp_exr_worker_t *wk = NULL;
     int64_t n = 0, nmax;
     int64_t w = (int64_t) pt->dw.max.x - pt->dw.min.x + 1;
     int64_t h = (int64_t) pt->dw.max.y - pt->dw.min.y + 1;
@@ -659,21 +652,13 @@ static int decode_part(fp_frame_t *f, int p, const char *where, long frame)
         goto done;
     }
     dec_job_t job = { f, p, ci, xy, xy + nmax, n, 0, 0 };
-    for (int i = 0; i < nw; ++i) {
-        wk[i].job = &job;
-        wk[i].fail = -1;
-    }
-    fp_exr_run_workers(dec_work, wk, sizeof *wk, nw);
-    int first = -1;
-    for (int i = 0; i < nw; ++i)
-        if (wk[i].fail >= 0 && (first < 0 || wk[i].fail < wk[first].fail))
-            first = i;
-    if (first >= 0) {
-        int64_t k = wk[first].fail;
-        rv = wk[first].rv;
+    const fp_exr_worker_t *first = fp_exr_run_workers(dec_work, &job, wk, nw);
+    if (first) {
+        int64_t k = first->fail;
+        rv = first->rv;
         at_x = xy[k];
         at_y = xy[nmax + k];
-        why = wk[first].msg;
+        why = first->msg;
         goto fail;
     }
     if (info_rv != EXR_ERR_SUCCESS) {

@@ -242,13 +242,6 @@ typedef struct enc_job_t {
     atomic_int stop;
 } enc_job_t;
 
-typedef struct enc_worker_t {
-    enc_job_t *job;
-    int64_t fail;                /* first chunk it failed on, or -1 */
-    exr_result_t rv;
-    char msg[FP_EXR_MSG_LEN];
-} enc_worker_t;
-
 static exr_result_t encode_chunk(enc_job_t *j, exr_encode_pipeline_t *enc,
                                  int *inited, int *map, int64_t k)
 {
@@ -298,7 +291,7 @@ static exr_result_t encode_chunk(enc_job_t *j, exr_encode_pipeline_t *enc,
 
 static void *enc_work(void *arg)
 {
-    enc_worker_t *w = arg;
+    fp_exr_worker_t *w = arg;
     enc_job_t *j = w->job;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     int inited = 0;
@@ -337,7 +330,7 @@ static int encode_part(exr_context_t o, int idx, const out_part_t *op,
     exr_chunk_info_t *ci = NULL;
     uint8_t **data = NULL;
     uint64_t *size = NULL;
-    enc_worker_t *wk = NULL;
+    fp_exr_worker_t *wk = NULL;
     int64_t w = (int64_t) dw->max.x - dw->min.x + 1;
     int64_t h = (int64_t) dw->max.y - dw->min.y + 1;
     exr_result_t rv = exr_get_scanlines_per_chunk(o, idx, &lpc);
@@ -361,19 +354,11 @@ static int encode_part(exr_context_t o, int idx, const out_part_t *op,
             goto fail;
     }
     enc_job_t job = { o, idx, op, dw, ci, data, size, n, 0, 0 };
-    for (int i = 0; i < nw; ++i) {
-        wk[i].job = &job;
-        wk[i].fail = -1;
-    }
-    fp_exr_run_workers(enc_work, wk, sizeof *wk, nw);
-    int first = -1;
-    for (int i = 0; i < nw; ++i)
-        if (wk[i].fail >= 0 && (first < 0 || wk[i].fail < wk[first].fail))
-            first = i;
-    if (first >= 0) {
-        y = dw->min.y + wk[first].fail * lpc;
-        rv = wk[first].rv;
-        why = wk[first].msg;
+    const fp_exr_worker_t *first = fp_exr_run_workers(enc_work, &job, wk, nw);
+    if (first) {
+        y = dw->min.y + first->fail * lpc;
+        rv = first->rv;
+        why = first->msg;
         goto fail;
     }
     for (int64_t k = 0; k < n; ++k) {
