@@ -194,7 +194,14 @@ const fp_option_t fp_scatter_options[] = {
       "depth-aware blur (--blur) to reconstruct: fewer --scatter-steps, no banding",
       NULL, 0 },
     { "light-panels", 0, FP_OPT_INT, LI(light_panels), 0, 0, "8", 1, 64, NULL, "N",
-      "Gauss-Legendre panels (4 nodes each), equiangular around each local light", NULL, 0 },
+      "--light-quad panels: Gauss-Legendre panels (4 nodes each), equiangular around each "
+      "local light", NULL, 0 },
+    { "light-quad", 0, FP_OPT_ENUM, LI(light_quad), 0, 0, "fast", 0, 0, "fast|panels",
+      "fast|panels",
+      "local lights' quadrature along the view ray: fast (4 pieces of 8 Gauss-Legendre "
+      "nodes per light, the phase function's peak and the spot's cone taken out in closed "
+      "form, exact optical depths; used without a fogmap and with spots up to 90 degrees) or "
+      "panels (--light-panels equiangular panels, always used with a fogmap)", NULL, 0 },
     FP_OPT_END
 };
 
@@ -244,6 +251,12 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
                      : l->self_shadow == FP_SELF_SHADOW_MAP ? FP_SELF_MAP : FP_SELF_EXACT;
     lt[FP_LT_STEPS] = l->scatter_steps;
     lt[FP_LT_PANELS] = l->light_panels;
+    /* The fast rule cuts a spot's range at its cone, one interval when the
+     * cone is at most 90 degrees wide: wider spots take the panels. */
+    int wide = 0;
+    for (int k = 0; k < l->num_lights; k++)
+        wide |= l->lights[k].kind && l->lights[k].outer > 90;
+    lt[FP_LT_LIGHT_QUAD] = l->light_quad == FP_LIGHT_QUAD_FAST && !wide;
     lt[FP_LT_INTERLEAVE] = floor(l->interleave[0]);
     lt[FP_LT_INTERLEAVE + 1] = floor(l->interleave[1]);
     lt[FP_LT_NLIGHTS] = l->num_lights;
@@ -559,10 +572,12 @@ int fp_scatter_cl_init(fp_cl_t *cl, fp_scatter_cl_t *s)
 {
     memset(s, 0, sizeof *s);
     s->cl = cl;
-    cl_program prog;
+    cl_program prog, lprog;
     if (fp_cl_program(cl, "scatter", "-cl-std=CL1.2", &prog) ||
         fp_cl_kernel(prog, "scatter_fog", &s->kernel) ||
-        fp_cl_kernel(prog, "sun_od_grid", &s->grid_kernel))
+        fp_cl_kernel(prog, "sun_od_grid", &s->grid_kernel) ||
+        fp_cl_program(cl, "scatter", "-cl-std=CL1.2 -cl-fast-relaxed-math", &lprog) ||
+        fp_cl_kernel(lprog, "scatter_light", &s->light_kernel))
         return FP_ERR;
     cl_int err;
     s->lt = clCreateBuffer(fp_cl_context(cl), CL_MEM_READ_ONLY, FP_LT_COUNT * sizeof(float), NULL,
@@ -634,9 +649,38 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
         }
     }
     cl_kernel k = s->kernel;
-    if (FP_CL_ARG(k, 12, s->lt) || FP_CL_ARG(k, 13, s->smap) || FP_CL_ARG(k, 14, s->grid))
+    if (FP_CL_ARG(k, 12, s->lt) || FP_CL_ARG(k, 13, s->smap) || FP_CL_ARG(k, 14, s->grid) ||
+        fp_integrate_cl_launch(ic, k, v, pix, npix, out, "scatter_fog"))
         return FP_ERR;
-    return fp_integrate_cl_launch(ic, k, v, pix, npix, out, "scatter_fog");
+    /* Local lights by the fast rule: scatter_fog left them out
+     * (FP_LIGHTS_APART); one launch each adds one to the fog layer. */
+    int nl = (int)d->lt[FP_LT_NLIGHTS];
+    if (!(d->lt[FP_LT_LIGHT_QUAD] != 0 && fog->fp[FP_F_HAS_MAP] == 0 && nl > 0) ||
+        (pix && npix == 0))
+        return FP_OK;
+    cl_kernel lk = s->light_kernel;
+    cl_int w = v->width, h = v->height, cnpix = pix ? (cl_int)npix : 0;
+    size_t local[2] = { 16, 8 };
+    size_t global[2] = { fp_cl_round_up((size_t)w, local[0]), fp_cl_round_up((size_t)h, local[1]) };
+    if (cnpix) {
+        local[0] = 128;
+        local[1] = 1;
+        global[0] = fp_cl_round_up(npix, local[0]);
+        global[1] = 1;
+    }
+    if (FP_CL_ARG(lk, 0, ic->depth) || FP_CL_ARG(lk, 1, ic->fog) || FP_CL_ARG(lk, 2, ic->view) ||
+        FP_CL_ARG(lk, 3, w) || FP_CL_ARG(lk, 4, h) || FP_CL_ARG(lk, 5, ic->params) ||
+        FP_CL_ARG(lk, 6, ic->pix) || FP_CL_ARG(lk, 7, cnpix) || FP_CL_ARG(lk, 8, s->lt))
+        return FP_ERR;
+    for (cl_int li = 0; li < nl; li++)
+        if (FP_CL_ARG(lk, 9, li) ||
+            fp_cl_check(clEnqueueNDRangeKernel(q, lk, 2, NULL, global, local, 0, NULL, NULL),
+                        "scatter_light"))
+            return FP_ERR;
+    size_t nout = cnpix ? npix : (size_t)w * h;
+    return fp_cl_check(clEnqueueReadBuffer(q, ic->fog, CL_TRUE, 0, nout * 4 * sizeof(float), out, 0,
+                                           NULL, NULL),
+                       "scatter: read the fog layer with the local lights");
 }
 
 void fp_scatter_cl_release(fp_scatter_cl_t *s)
@@ -645,6 +689,8 @@ void fp_scatter_cl_release(fp_scatter_cl_t *s)
         clReleaseKernel(s->kernel);
     if (s->grid_kernel)
         clReleaseKernel(s->grid_kernel);
+    if (s->light_kernel)
+        clReleaseKernel(s->light_kernel);
     cl_mem *mems[] = { &s->lt, &s->smap, &s->grid };
     for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)
         if (*mems[i])

@@ -78,7 +78,7 @@ int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
 
 typedef struct fp_scatter_cl_t {
     fp_cl_t *cl;
-    cl_kernel kernel, grid_kernel;
+    cl_kernel kernel, grid_kernel, light_kernel;
     cl_mem lt, smap, grid;
     fp_grid_key_t grid_key;   /* what grid holds */
     size_t grid_n;

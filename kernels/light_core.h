@@ -47,6 +47,7 @@
 #define FP_LT_SEG_OD 74     /* largest optical depth of one segment of the view ray */
 #define FP_LT_SEG_JUMP 75   /* largest change of the light over one segment, weighted */
 #define FP_LT_INTERLEAVE 76 /* 2: n x m pattern of per-pixel sample offsets (1, 1: off) */
+#define FP_LT_LIGHT_QUAD 78 /* local lights: 0 equiangular panels, 1 the fast rule (no fogmap) */
 #define FP_LT_LIGHTS 80      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
 #define FP_LT_LIGHT_STRIDE 16
 #define FP_LT_MAX_LIGHTS 8

@@ -100,6 +100,7 @@ typedef struct fp_animate_params_t {
 #define FP_MAX_LIGHTS 8
 enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN };
 enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP };
+enum { FP_LIGHT_QUAD_FAST = 0, FP_LIGHT_QUAD_PANELS };
 
 /* One --light: kind (0 point, 1 spot), position, color, intensity (W/sr),
  * spot axis, inner and outer cone half-angles (degrees). */
@@ -129,6 +130,7 @@ typedef struct fp_light_params_t {
     double self_shadow_grid[3];
     int scatter_steps;
     int light_panels;
+    int light_quad;       /* FP_LIGHT_QUAD_* */
     double interleave[2]; /* N x M pattern of per-pixel sample offsets */
 } fp_light_params_t;
 
