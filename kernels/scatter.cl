@@ -72,7 +72,14 @@ __kernel void scatter_light(__global const float *depth, __global float4 *fog_ou
     float nx = ((float)x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
     float ny = ((float)y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
     float cw = h[6] * nx + h[7] * ny + h[8];
-    float cx = (h[0] * nx + h[1] * ny + h[2]) / cw, cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    float px = (h[0] * nx + h[1] * ny + h[2]) / cw, py = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    /* Orthographic (fp_view_ray, fp_view_origin_at): rays along the view
+     * axis from the pixel's point on the camera's plane. */
+    float ortho = view[FP_VIEW_ORTHO] != 0.0f ? 1.0f : 0.0f;
+    float cx = (1.0f - ortho) * px, cy = (1.0f - ortho) * py;
+    float ox = view[0] + ortho * (m[0] * px + m[1] * py),
+          oy = view[1] + ortho * (m[3] * px + m[4] * py),
+          oz = view[2] + ortho * (m[6] * px + m[7] * py);
     float dx = m[0] * cx + m[1] * cy + m[2], dy = m[3] * cx + m[4] * cy + m[5],
           dz = m[6] * cx + m[7] * cy + m[8];
     float l = sqrt(dx * dx + dy * dy + dz * dz);
@@ -85,7 +92,7 @@ __kernel void scatter_light(__global const float *depth, __global float4 *fog_ou
                   : kind == FP_DEPTH_RADIAL ? dv / sqrt(cx * cx + cy * cy + 1.0f) : 1.0f / dv;
     float len = sky ? INFINITY : l * scale;
     float S[3];
-    fp_light_ray(fp, lt, light, view[0], view[1], view[2], dx / l, dy / l, dz / l, len, S);
+    fp_light_ray(fp, lt, light, ox, oy, oz, dx / l, dy / l, dz / l, len, S);
     if (in)
         fog_out[out] += (float4)(S[0], S[1], S[2], 0.0f);
 }

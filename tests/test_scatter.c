@@ -1364,26 +1364,32 @@ static void test_light_fast_opencl(void **state)
     assert_int_equal(scene_open(&sc, opts, 0), 0);
     size_t npx = (size_t)sc.w * sc.h;
     float *ref = malloc(npx * 4 * sizeof *ref), *got = malloc(npx * 4 * sizeof *got);
-    assert_int_equal(fp_scatter_process(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, ref), FP_OK);
-    assert_int_equal(fp_scatter_process_cl(&scl, &icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth, got),
-                     FP_OK);
-    double max_ds = 0, max_rel = 0, smax = 0;
-    long failures = 0;
-    for (size_t i = 0; i < npx; i++)
-        for (int c = 0; c < 4; c++) {
-            double a = ref[4 * i + c], b = got[4 * i + c], e = fabs(b - a);
-            if (c < 3)
-                max_ds = fmax(max_ds, e);
-            smax = fmax(smax, c < 3 ? a : 0);
-            if (fabs(a) > 1e-3)
-                max_rel = fmax(max_rel, e / fabs(a));
-            failures += !(e <= fmax(2e-3 * fabs(a), 1e-4));
-        }
-    print_message("OpenCL vs C, fast local lights (night street lamps, no fogmap, %dx%d): max "
-                  "|dS| %.3g (S up to %.3g), max relative (values > 1e-3) %.3g; tolerance 2e-3 "
-                  "relative or 1e-4\n", sc.w, sc.h, max_ds, smax, max_rel);
-    assert_int_equal(failures, 0);
-    assert_true(smax > 0.01);
+    /* Perspective, then the same projection read as orthographic (rays
+     * from the camera's plane: scatter_light's own origin and direction). */
+    for (int ortho = 1; ortho >= 0; ortho--) {
+        sc.v.ortho = ortho;
+        assert_int_equal(fp_scatter_process(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, ref), FP_OK);
+        assert_int_equal(fp_scatter_process_cl(&scl, &icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth,
+                                               got), FP_OK);
+        double max_ds = 0, max_rel = 0, smax = 0;
+        long failures = 0;
+        for (size_t i = 0; i < npx; i++)
+            for (int c = 0; c < 4; c++) {
+                double a = ref[4 * i + c], b = got[4 * i + c], e = fabs(b - a);
+                if (c < 3)
+                    max_ds = fmax(max_ds, e);
+                smax = fmax(smax, c < 3 ? a : 0);
+                if (fabs(a) > 1e-3)
+                    max_rel = fmax(max_rel, e / fabs(a));
+                failures += !(e <= fmax(2e-3 * fabs(a), 1e-4));
+            }
+        print_message("OpenCL vs C, fast local lights (night street lamps, no fogmap, %dx%d%s): "
+                      "max |dS| %.3g (S up to %.3g), max relative (values > 1e-3) %.3g; "
+                      "tolerance 2e-3 relative or 1e-4\n", sc.w, sc.h,
+                      ortho ? ", orthographic" : "", max_ds, smax, max_rel);
+        assert_int_equal(failures, 0);
+        assert_true(smax > 0.01);
+    }
     int *pix = malloc((npx / 3 + 1) * sizeof *pix);
     float *lst = malloc((npx / 3 + 1) * 4 * sizeof *lst);
     size_t m = test_pixel_list(npx, pix);
