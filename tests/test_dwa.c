@@ -29,128 +29,7 @@
 #include "exrio.h"
 #include "fp.h"
 
-static char tdir[4096];
-
-/* ------------------------------------------------------------ helpers */
-
-static uint16_t f2h(float f)
-{
-    /* values here are normal halves in [0.01, 1]: round to nearest */
-    uint32_t x;
-    memcpy(&x, &f, 4);
-    uint32_t sign = (x >> 16) & 0x8000;
-    int32_t e = (int32_t) ((x >> 23) & 0xff) - 127 + 15;
-    uint32_t man = x & 0x7fffff;
-    uint32_t h = sign | ((uint32_t) e << 10) | (man >> 13);
-    uint32_t rem = man & 0x1fff;
-    if (rem > 0x1000 || (rem == 0x1000 && (h & 1)))
-        h++;
-    return (uint16_t) h;
-}
-
-static float h2f(uint16_t h)
-{
-    uint32_t sign = (uint32_t) (h & 0x8000) << 16, e = (h >> 10) & 0x1f,
-             m = h & 0x3ff, bits;
-    if (e == 0) {
-        float v = ldexpf((float) m, -24);
-        return sign ? -v : v;
-    }
-    if (e == 31)
-        bits = sign | 0x7f800000u | (m << 13);
-    else
-        bits = sign | ((e + 112) << 23) | (m << 13);
-    float f;
-    memcpy(&f, &bits, 4);
-    return f;
-}
-
-static size_t tsize(int type)
-{
-    return type == EXR_PIXEL_HALF ? 2 : 4;
-}
-
-static float pget(int type, const void *p, size_t i)
-{
-    const uint8_t *b = p;
-    if (type == EXR_PIXEL_HALF) {
-        uint16_t h;
-        memcpy(&h, b + i * 2, 2);
-        return h2f(h);
-    }
-    if (type == EXR_PIXEL_UINT) {
-        uint32_t u;
-        memcpy(&u, b + i * 4, 4);
-        return (float) u;
-    }
-    float f;
-    memcpy(&f, b + i * 4, 4);
-    return f;
-}
-
-/* Smooth content w x h samples (lossy codecs stay within tight bounds). */
-static void *mkplane(int type, int w, int h, int seed)
-{
-    uint8_t *p = malloc((size_t) w * h * tsize(type));
-    assert_non_null(p);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            size_t i = (size_t) y * w + x;
-            float v = 0.05f + 0.9f * (0.5f + 0.5f * sinf(x * 0.11f + seed) *
-                                                  cosf(y * 0.07f - seed * 0.3f));
-            if (type == EXR_PIXEL_HALF) {
-                uint16_t hv = f2h(v);
-                memcpy(p + i * 2, &hv, 2);
-            } else if (type == EXR_PIXEL_FLOAT) {
-                float fv = v * 10.0f + (float) seed + 0.001f * (float) x;
-                memcpy(p + i * 4, &fv, 4);
-            } else {
-                uint32_t u = (uint32_t) (x * 7 + y * 131 + seed * 1000);
-                memcpy(p + i * 4, &u, 4);
-            }
-        }
-    return p;
-}
-
-static void quiet_handler(exr_const_context_t c, exr_result_t code, const char *msg)
-{
-    (void) c;
-    (void) code;
-    (void) msg;
-}
-
-static int64_t fdiv(int64_t a, int64_t b)
-{
-    int64_t q = a / b;
-    if ((a % b) != 0 && ((a < 0) != (b < 0)))
-        q--;
-    return q;
-}
-
-static int64_t scount(int64_t lo, int64_t hi, int s)
-{
-    return hi <= lo ? 0 : fdiv(hi - 1, s) - fdiv(lo - 1, s);
-}
-
-static void path_in(char *out, size_t n, const char *name)
-{
-    snprintf(out, n, "%s/%s", tdir, name);
-}
-
-static uint8_t *slurp(const char *path, size_t *size)
-{
-    void *buf = NULL;
-    assert_int_equal(fp_read_whole_file(path, &buf, size), FP_OK);
-    return buf;
-}
-
-static void spit(const char *path, const void *buf, size_t size)
-{
-    FILE *fp = fopen(path, "wb");
-    assert_non_null(fp);
-    assert_int_equal(fwrite(buf, 1, size, fp), size);
-    assert_int_equal(fclose(fp), 0);
-}
+#include "exr_testutil.h"
 
 static void *dup_bytes(const void *b, size_t n)
 {
@@ -158,43 +37,6 @@ static void *dup_bytes(const void *b, size_t n)
     assert_non_null(d);
     memcpy(d, b, n);
     return d;
-}
-
-/* stderr capture, to check that messages name the file and the frame */
-static int saved_stderr = -1;
-
-static void cap_begin(void)
-{
-    char p[4200];
-    path_in(p, sizeof p, "stderr.txt");
-    fflush(stderr);
-    saved_stderr = dup(2);
-    int fd = open(p, O_CREAT | O_TRUNC | O_WRONLY, 0644);
-    assert_true(fd >= 0);
-    dup2(fd, 2);
-    close(fd);
-}
-
-static const char *cap_end(void)
-{
-    static char text[8192];
-    char p[4200];
-    path_in(p, sizeof p, "stderr.txt");
-    fflush(stderr);
-    dup2(saved_stderr, 2);
-    close(saved_stderr);
-    FILE *fp = fopen(p, "rb");
-    assert_non_null(fp);
-    size_t n = fread(text, 1, sizeof text - 1, fp);
-    text[n] = '\0';
-    fclose(fp);
-    return text;
-}
-
-static void assert_contains(const char *hay, const char *needle)
-{
-    if (!strstr(hay, needle))
-        fail_msg("expected \"%s\" in \"%s\"", needle, hay);
 }
 
 /* ------------------------------------------------------------ fixtures */
@@ -219,16 +61,6 @@ typedef struct tpart_t {
 #define Y0 6
 #define W 62
 #define H 46
-
-static exr_attr_box2i_t box(int x0, int y0, int x1, int y1)
-{
-    exr_attr_box2i_t b;
-    b.min.x = x0;
-    b.min.y = y0;
-    b.max.x = x1;
-    b.max.y = y1;
-    return b;
-}
 
 static void add(tpart_t *tp, const char *name, int type, int s, int seed)
 {
@@ -352,7 +184,7 @@ static uint8_t *make_exr(const tpart_t *parts, int np, float level, size_t *size
         exr_encoding_destroy(ctx, &enc);
     }
     assert_int_equal(exr_finish(&ctx), 0);
-    uint8_t *plain = slurp(path, size);
+    uint8_t *plain = slurp_file(path, size);
     unlink(path);
     if (!any_dwa)
         return plain;
@@ -385,7 +217,7 @@ static void rd_open(rd_t *r, const void *buf, size_t size, int *comps, int max_p
         plain = dup_bytes(buf, size);
     }
     path_in(r->path, sizeof r->path, "check.exr");
-    spit(r->path, plain, psize);
+    spit_file(r->path, plain, psize);
     free(plain);
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = quiet_handler;
