@@ -656,7 +656,7 @@ static int reference_cl(fp_reference_cl_t *s, const fp_params_t *p, const fp_sca
     for (int i = 0; i < FP_LEVEL_TABLE * FP_LR_STRIDE; i++)
         lvf[i] = (float)(t ? t->lvf[i] : 0);
     cl_command_queue q = fp_cl_queue(s->cl);
-    size_t ns = sd && sd->smap ? (size_t)sd->smap_w * sd->smap_h : 1;
+    size_t ns = sd && sd->smap ? sd->smap_n : 1;
     size_t ng = g.cells ? 2 * (size_t)g.n[0] * g.n[1] * g.n[2] : 2;
     /* Launches of at most FP_REF_LAUNCH pixel-samples (fewer with
      * bounces): bands of entries (whole rows' worth), each through batches

@@ -3,6 +3,7 @@
 #include "fp.h"
 #include "options.h"
 #include "seq.h"
+#include "shafts.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -169,9 +170,12 @@ const fp_option_t fp_scatter_options[] = {
       "the sun's shadows in the fog: from --shadow-map (auto: when given), by marching "
       "toward the sun over the camera's depth buffer (screen), or none", NULL, 0 },
     { "shadow-bias", 0, FP_OPT_REAL, LI(shadow_bias), 0, 0, "0", 0, 1e6, NULL, "D",
-      "shadow map depth bias in scene units (0: one and a half texels)", NULL, 0 },
+      "shadow map depth bias in scene units, added to each texel's own (half the depth's change "
+      "across the texel on its surface, at most what level ground needs under this sun)", NULL, 0 },
     { "shadow-filter", 0, FP_OPT_INT, LI(shadow_filter), 0, 0, "1", 0, 8, NULL, "R",
-      "shadow map filtering: percentage-closer taps over (2R+1)^2 texels, bilinear", NULL, 0 },
+      "soften the shadows' edges: along each view ray the sun's visibility ramps over R texels "
+      "each side of an edge, at most half of the stretch on either side (0: hard, exact for the "
+      "map)", NULL, 0 },
     { "screen-shadow", 0, FP_OPT_VEC, LI(screen_shadow), 3, 3, "32,20,1", 0, 1e6, NULL,
       "STEPS,DIST,THICK",
       "--shadows screen: steps toward the sun, how far (scene units), and the thickness "
@@ -328,10 +332,6 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
         return fp_error("%s: frame %ld: out of memory", path, frame);
     }
     memcpy(z, fp_frame_depth(f), n * sizeof *z);
-    free(d->smap);
-    d->smap = z;
-    d->smap_w = info->width;
-    d->smap_h = info->height;
     /* Fog point -> world point: the inverse of fp_world_to_fog, as a
      * row-vector 4x4, then world -> NDC.  NDC is relative to the display
      * window; texels are the data window's, so shift and scale. */
@@ -366,20 +366,46 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
         d->lt[FP_LT_SM_Z + r] = c[r * 4 + 2];
     d->lt[FP_LT_SM_W] = info->width;
     d->lt[FP_LT_SM_H] = info->height;
-    /* Default bias: one and a half texels in scene units (the world size
-     * of a texel along the map's x axis). */
-    double bias = p->light.shadow_bias;
-    if (!(bias > 0)) {
-        /* A texel in scene units, times 1.5, plus the rise of level ground
-         * seen by the sun over the filter's reach: (R + 1) texels times
-         * the sun's horizontal over its vertical component. */
-        double gx = sqrt(m[0] * m[0] + m[4] * m[4] + m[8] * m[8]) * info->disp_w;
-        double texel = gx > 0 ? 1 / gx : 0;
-        const double *l = d->lt + FP_LT_SUN_DIR;
-        double slope = sqrt(l[0] * l[0] + l[2] * l[2]) / fmax(l[1], 0.1);
-        bias = texel * (1.5 + (p->light.shadow_filter + 1) * slope);
+    /* The walk (kernels/shafts_core.h) needs the map's coordinates affine
+     * in the point: an orthographic sun camera, w = 1. */
+    double *q = d->lt + FP_LT_SM_NDC;
+    if (!(fabs(q[3]) + fabs(q[7]) + fabs(q[11]) <= 1e-6 * fabs(q[15]))) {
+        fp_frame_free(f);
+        free(z);
+        return fp_error("%s: frame %ld: shadow map with a perspective worldToNDC (expected the "
+                        "sun's orthographic camera, w = 1)", path, frame);
     }
-    d->lt[FP_LT_SM_BIAS] = bias;
+    for (int i = 0; i < 16; i++)
+        if (i % 4 != 3)
+            q[i] /= q[15];
+    q[15] = 1;
+    /* The bias, per texel in scene units (filters/shafts.c): half the
+     * depth's change across the texel on its own surface, at most what
+     * level ground under this sun needs (a texel times the sun's
+     * horizontal over vertical component, at least one texel), plus
+     * --shadow-bias. */
+    double gx = sqrt(m[0] * m[0] + m[4] * m[4] + m[8] * m[8]) * info->disp_w;
+    double gy = sqrt(m[1] * m[1] + m[5] * m[5] + m[9] * m[9]) * info->disp_h;
+    double texel = fmax(gx > 0 ? 1 / gx : 0, gy > 0 ? 1 / gy : 0);
+    const double *l = d->lt + FP_LT_SUN_DIR;
+    double slope = sqrt(l[0] * l[0] + l[2] * l[2]) / fmax(l[1], 0.05);
+    d->lt[FP_LT_SM_BIAS] = p->light.shadow_bias;
+    float *packed = NULL;
+    size_t np = 0;
+    int levels = 0;
+    if (fp_shafts_build(z, info->width, info->height, texel * fmax(1, slope),
+                        p->light.shadow_bias, &packed, &np, &levels)) {
+        fp_frame_free(f);
+        free(z);
+        return fp_error("%s: frame %ld: out of memory", path, frame);
+    }
+    free(d->smap);
+    free(z);
+    d->smap = packed;
+    d->smap_n = np;
+    d->smap_w = info->width;
+    d->smap_h = info->height;
+    d->lt[FP_LT_SM_LEVELS] = levels;
     fp_frame_free(f);
     return FP_OK;
 }
@@ -600,7 +626,7 @@ static int upload(fp_scatter_cl_t *s, const fp_scatter_data_t *d)
     cl_int err;
     if (s->smap)
         clReleaseMemObject(s->smap);
-    size_t ns = d->smap ? (size_t)d->smap_w * d->smap_h : 1;
+    size_t ns = d->smap ? d->smap_n : 1;
     s->smap = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ns * sizeof(float),
                              (void *)(d->smap ? d->smap : no_map), &err);
     if (fp_cl_check(err, "scatter: shadow map"))

@@ -32,9 +32,11 @@ typedef struct fp_grid_key_t {
 typedef struct fp_scatter_data_t {
     int active;               /* anything beyond ambient fog with albedo 1 */
     double lt[FP_LT_COUNT_];  /* FP_LT_* */
-    /* This frame's sun shadow map (--shadow-map), camera-space z per texel. */
+    /* This frame's sun shadow map (--shadow-map), packed by
+     * fp_shafts_build: biased z per texel, then its min-max pyramid. */
     float *smap;
     int smap_w, smap_h;
+    size_t smap_n;            /* floats in smap */
     /* This frame's self-shadow grid (--self-shadow map): optical depth to
      * the sun at each node. */
     float *grid;

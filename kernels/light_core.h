@@ -33,8 +33,8 @@
 #define FP_LT_SM_H 20
 #define FP_LT_SM_NDC 21      /* 16: fog point (row vector, w = 1) -> shadow map NDC */
 #define FP_LT_SM_Z 37        /* 4: fog point -> the map camera's z: dot(p, c) + c[3] */
-#define FP_LT_SM_BIAS 41     /* depth bias, scene units */
-#define FP_LT_SM_RADIUS 42   /* filtered lookup: taps -R..R texels each way */
+#define FP_LT_SM_BIAS 41     /* the user's depth bias, scene units (in the map's zb already) */
+#define FP_LT_SM_RADIUS 42   /* --shadow-filter: ramps R texels each side of a shadow's edge */
 #define FP_LT_SS_STEPS 43    /* screen-space shadows: steps toward the sun */
 #define FP_LT_SS_DIST 44     /* how far toward the sun, scene units */
 #define FP_LT_SS_THICK 45    /* assumed thickness of what the depth buffer shows */
@@ -48,6 +48,7 @@
 #define FP_LT_SEG_JUMP 75   /* largest change of the light over one segment, weighted */
 #define FP_LT_INTERLEAVE 76 /* 2: n x m pattern of per-pixel sample offsets (1, 1: off) */
 #define FP_LT_LIGHT_QUAD 78 /* local lights: 0 equiangular panels, 1 the fast rule (no fogmap) */
+#define FP_LT_SM_LEVELS 79  /* levels of the shadow map's min-max pyramid (shafts_core.h) */
 #define FP_LT_LIGHTS 80      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
 #define FP_LT_LIGHT_STRIDE 16
 #define FP_LT_MAX_LIGHTS 8
@@ -110,41 +111,28 @@ FP_FN fp_real fp_sigma_t(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
     return s + fp[FP_F_SIGMA] * fmax(f, (fp_real)0) * h;
 }
 
-/* Shadow map: the sun's orthographic depth map (camera-space z, +inf where
- * it sees nothing).  Percentage-closer filtering: bilinear weights of the
- * four texels around each tap, taps on a (2R+1)^2 texel grid.  Points
+/* Shadow map: the sun's orthographic depth map, packed by fp_shafts_build
+ * (filters/shafts.c): texel (i, j) covers map coordinates [i, i + 1) x
+ * [j, j + 1) (NDC times the size) and holds zb, the sun camera's z of what
+ * it sees plus the texel's bias (+inf where it sees nothing).  A point is
+ * lit when its z is at most zb of the texel it falls in (point-sampled:
+ * the visibility that kernels/shafts_core.h integrates exactly); points
  * outside the map are lit. */
 FP_FN fp_real fp_shadow_map(FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *smap,
                             fp_real x, fp_real y, fp_real z)
 {
     FP_CONSTANT const fp_real *m = lt + FP_LT_SM_NDC;
-    fp_real w = x * m[3] + y * m[7] + z * m[11] + m[15];
-    fp_real nx = (x * m[0] + y * m[4] + z * m[8] + m[12]) / w;
-    fp_real ny = (x * m[1] + y * m[5] + z * m[9] + m[13]) / w;
     FP_CONSTANT const fp_real *cz = lt + FP_LT_SM_Z;
-    fp_real pz = x * cz[0] + y * cz[1] + z * cz[2] + cz[3] - lt[FP_LT_SM_BIAS];
-    int W = (int)lt[FP_LT_SM_W], H = (int)lt[FP_LT_SM_H], R = (int)lt[FP_LT_SM_RADIUS];
-    fp_real tx = nx * W - (fp_real)0.5, ty = ny * H - (fp_real)0.5;
-    if (!(tx >= -1 && ty >= -1 && tx <= W && ty <= H))
+    int W = (int)lt[FP_LT_SM_W], H = (int)lt[FP_LT_SM_H];
+    fp_real u = (x * m[0] + y * m[4] + z * m[8] + m[12]) * W;
+    fp_real v = (x * m[1] + y * m[5] + z * m[9] + m[13]) * H;
+    if (!(u >= 0 && v >= 0 && u < W && v < H))
         return 1;
-    fp_real lit = 0, wsum = 0;
-    for (int j = -R; j <= R; j++)
-        for (int i = -R; i <= R; i++) {
-            fp_real sx = tx + i, sy = ty + j;
-            fp_real fx = floor(sx), fy = floor(sy);
-            fp_real ax = sx - fx, ay = sy - fy;
-            int ix = (int)fx, iy = (int)fy;
-            for (int k = 0; k < 4; k++) {
-                int u = ix + (k & 1), v = iy + (k >> 1);
-                fp_real wk = ((k & 1) ? ax : 1 - ax) * ((k >> 1) ? ay : 1 - ay);
-                /* Off the map: lit. */
-                fp_real zm = u < 0 || v < 0 || u >= W || v >= H ? (fp_real)FP_INF
-                                                                 : (fp_real)smap[v * W + u];
-                lit += wk * (pz <= zm ? (fp_real)1 : (fp_real)0);
-                wsum += wk;
-            }
-        }
-    return wsum > 0 ? lit / wsum : 1;
+    fp_real pz = x * cz[0] + y * cz[1] + z * cz[2] + cz[3];
+    int i = (int)floor(u), j = (int)floor(v);
+    i = i > W - 1 ? W - 1 : i;
+    j = j > H - 1 ? H - 1 : j;
+    return pz <= smap[j * W + i] ? (fp_real)1 : (fp_real)0;
 }
 
 /* Camera-space z of the scene at depth-buffer pixel (i, j) (+inf: sky). */

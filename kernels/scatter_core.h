@@ -21,6 +21,8 @@
 
 #define FP_SCATTER_MAX_STEPS_ 256
 
+#include "shafts_core.h"
+
 /* The fast rule's functions are inlined whole into their kernel
  * (scatter_light): a call left in a kernel keeps PoCL's work-group loop
  * scalar. */
@@ -493,6 +495,7 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
         return tau;
     }
     fp_real od_stop = lt[FP_LT_OD_STOP];
+    fp_real tb_span = tb;
     {
         /* Go only as far as the fog still matters: until its optical depth
          * from ta passes od_stop, or nearly all of it is behind (a sky
@@ -519,6 +522,37 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     fp_real ph_sun = fp_phase(kind, ph[1], ph[2], dx * l[0] + dy * l[1] + dz * l[2]);
     int n = (int)lt[FP_LT_STEPS];
     n = n < 1 ? 1 : n > FP_SCATTER_MAX_STEPS_ / 2 ? FP_SCATTER_MAX_STEPS_ / 2 : n;
+    /* The sun with its shadow map: the exact runs of kernels/shafts_core.h;
+     * the segments below then carry the ambient light and the local lights
+     * that need them. */
+    if ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP) {
+        if (ph_sun > 0) {
+            int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
+            int sides = !(isinf(fp[FP_F_BOX]) && isinf(fp[FP_F_BOX + 2]) &&
+                          isinf(fp[FP_F_BOX + 3]) && isinf(fp[FP_F_BOX + 5]));
+            int layered = fp[FP_F_HAS_MAP] == 0 &&
+                          (!self || (!sides && l[1] > (fp_real)1e-3));
+            fp_real sun = fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx,
+                                        dy, dz, ta, layered ? tb_span : tb, layered,
+                                        (tb - ta) / n, od_total);
+            for (int c = 0; c < 3; c++)
+                S[c] += albedo * ph_sun * sun * lt[FP_LT_SUN_E + c];
+        }
+        ph_sun = 0;
+        if (nl == 0 || fast_lights) {
+            for (int c = 0; c < 3; c++)
+                S[c] += albedo * -expm1(-od_total) * lt[FP_LT_AMB + c];
+#ifndef FP_LIGHTS_APART
+            for (int k = 0; fast_lights && k < nl; k++) {
+                fp_real Sk[3];
+                fp_light_ray(fp, lt, k, ox, oy, oz, dx, dy, dz, len, Sk);
+                for (int c = 0; c < 3; c++)
+                    S[c] += Sk[c];
+            }
+#endif
+            return tau;
+        }
+    }
     /* Interleaved sampling: the first segment is `offset` of one long,
      * which shifts every later end along the ray. */
     fp_real h0 = (tb - ta) / n, xmax = lt[FP_LT_SEG_OD];

@@ -123,8 +123,8 @@ typedef struct fp_light_params_t {
     int num_lights;
     char *shadow_map;     /* pattern of the sun's depth maps */
     int shadows;          /* FP_SHADOWS_* */
-    double shadow_bias;   /* scene units; 0: 1.5 texels */
-    int shadow_filter;    /* PCF radius, texels */
+    double shadow_bias;   /* scene units, added to each texel's own */
+    int shadow_filter;    /* edge ramps, texels each side (0: hard) */
     double screen_shadow[3]; /* steps, distance, thickness */
     int self_shadow;      /* FP_SELF_SHADOW_* */
     double self_shadow_grid[3];

@@ -1,0 +1,309 @@
+/* fogpipe: the sun's light in the fog along one view ray, exact for the
+ * shadow map (issue 13), shared by the OpenCL kernel (scatter.cl, float)
+ * and the C reference (filters/scatter.c, double).  Include after
+ * fog_core.h and light_core.h, before scatter_core.h's ray function.
+ *
+ * The sun's part of the in-scatter is
+ *   S_sun = albedo E p(mu) int_ta^tb sigma(t) tau(0,t) V(t) tau_sun(t) dt.
+ * The sun's map is orthographic, so along the view ray the map's texel
+ * coordinates and its depth z(t) are affine in t: the texels the ray's
+ * projection crosses are walked in order (a DDA), and within each the
+ * point is lit where z(t) <= zb (the texel's depth plus its bias), a
+ * prefix or a suffix of the texel's stretch.  The visibility V(t) is thus
+ * known exactly, as runs of lit and shadowed stretches; a min-max pyramid
+ * of the map crosses long runs (blocks entirely in front of or behind the
+ * ray) in one step.  Nothing is sampled: a shaft one texel wide is found.
+ *
+ * The integrand over a lit run is the derivative of
+ *   C(t) = int_0^t sigma tau tau_sun,
+ * so S_sun/(albedo E p) = sum over lit runs of C(b) - C(a).  Where the fog
+ * depends on height alone (no fogmap, a box without sides), the sun's
+ * optical depth s at a point of the ray is affine in the camera's optical
+ * depth u there: s(t) = s0 + r u(t), r = -d_y / l_y, for any profile
+ * sigma(y) (both are integrals of sigma(y) over the same heights, divided
+ * by the rays' vertical speeds), so C is a closed form of u:
+ *   C(t) = e^-s0 (1 - e^{-(1 + r) u}) / (1 + r),
+ * exact with fog self-shadowing included.  Otherwise (a fogmap, a box with
+ * sides) C is carried along the ray: each step's optical depth exact, the
+ * sun's transmittance taken linear in u within it, steps halved where it
+ * changes (--scatter-steps: the longest step); exact without
+ * self-shadowing.
+ *
+ * Filtering (--shadow-filter R): the visibility ramps linearly over R
+ * texels' worth of the ray around each end of a run, never more than half
+ * of either neighbouring run, so a shadow keeps its dark core and no light
+ * is moved behind a caster.  int ramp dC = C(e + h) - avg C over the ramp,
+ * the average by Simpson's rule. */
+#ifndef FP_SHAFTS_CORE_H
+#define FP_SHAFTS_CORE_H
+
+/* Pyramid level L (1..levels) of the packed map (fp_shafts_build in
+ * filters/shafts.c): after the W x H biased depths, per level the min and
+ * max of zb over 2^L x 2^L blocks, (W + 2^L - 1) >> L blocks a row, up to
+ * the level of one block. */
+#define FP_SM_MAX_LEVELS 15
+
+/* C(t) along one ray: the closed form, or carried along the ray. */
+typedef struct {
+    int layered;
+    fp_real e0, k;      /* layered: e^-s0, 1 + r */
+    fp_real t, u, C, T; /* carried: where, camera optical depth, C, tau_sun there */
+    fp_real h, hmax, hmin;
+} fp_sun_acc_t;
+
+/* e0 (1 - e^{-k u}) / k without cancellation or overflow. */
+FP_FN fp_real fp_sun_layered_C(fp_real e0, fp_real k, fp_real u)
+{
+    if (!(u > 0))
+        return 0;
+    if (isinf(u))
+        return k > 0 ? e0 / k : (fp_real)FP_INF;
+    fp_real x = k * u;
+    if (fabs(x) < (fp_real)1e-3)
+        return e0 * u * (1 - x * ((fp_real)0.5 - x * ((fp_real)1 / 6)));
+    /* e^-s0 - e^-(s0 + k u): the second is e^-(u + s(t)) <= 1. */
+    return (e0 - e0 * exp(-x)) / k;
+}
+
+/* C at t (t never decreases between calls on one ray). */
+FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
+                       FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                       FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
+                       FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid, fp_real ox,
+                       fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real t)
+{
+    if (a->layered)
+        return fp_sun_layered_C(a->e0, a->k,
+                                fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, t, 0));
+    int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
+    fp_real xmax = lt[FP_LT_SEG_OD], jmax = lt[FP_LT_SEG_JUMP];
+    for (int guard = 0; a->t < t && guard < 4096; guard++) {
+        fp_real h = fmin(a->h, t - a->t);
+        fp_real t1 = h >= t - a->t ? t : a->t + h;
+        fp_real px = ox + a->t * dx, py = oy + a->t * dy, pz = oz + a->t * dz;
+        fp_real x = fp_fog_od(fp, lvi, lvf, coef, occ, px, py, pz, dx, dy, dz, t1 - a->t, 0);
+        fp_real c0 = -expm1(-x), ea = exp(-a->u);
+        if (self && x > xmax && h > a->hmin) {
+            a->h = h * fmax((fp_real)0.8 * xmax / x, (fp_real)0.1);
+            continue;
+        }
+        fp_real T1 = self ? fp_sun_tau(fp, lvi, lvf, coef, occ, lt, grid, ox + t1 * dx,
+                                       oy + t1 * dy, oz + t1 * dz)
+                          : (fp_real)1;
+        fp_real jump = fabs(T1 - a->T) * c0 * ea;
+        if (jump > jmax * fmax((fp_real)0.5 * (T1 + a->T), (fp_real)1e-12) && h > a->hmin) {
+            a->h = (fp_real)0.5 * h;
+            continue;
+        }
+        fp_real c1 = x > 0 ? fp_expm1_ratio(x) - exp(-x) : (fp_real)0;
+        a->C += ea * (a->T * c0 + (T1 - a->T) * c1);
+        a->u += x;
+        a->T = T1;
+        a->t = t1;
+        if (x < (fp_real)0.25 * xmax && jump < (fp_real)0.25 * jmax * a->T)
+            a->h = fmin(2 * a->h, a->hmax);
+    }
+    return a->C;
+}
+
+/* Runs of lit and shadowed stretches become edges; an edge is settled
+ * (its ramp known) when the run after it ends. */
+typedef struct {
+    int lit;           /* the run in progress */
+    fp_real start;     /* where it began */
+    int pending;       /* an edge at `start` waits for this run's end */
+    fp_real prev_len;  /* the length of the run before that edge */
+    fp_real hr;        /* the filter's half-width along the ray (0: hard) */
+    fp_real S;         /* sum of the settled edges and runs */
+} fp_runs_t;
+
+#define FP_SUN_ARGS                                                                             \
+    a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz
+
+/* Settle the edge at r->start, the run after it ending at `end`. */
+FP_FN void fp_runs_settle(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
+                          FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                          FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
+                          FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid,
+                          fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
+                          fp_real dz, fp_real end)
+{
+    fp_real e = r->start;
+    fp_real h = fmin(r->hr, (fp_real)0.5 * fmin(r->prev_len, end - e));
+    fp_real c;
+    if (h > 0)
+        c = (fp_sun_C(FP_SUN_ARGS, e - h) + 4 * fp_sun_C(FP_SUN_ARGS, e) +
+             fp_sun_C(FP_SUN_ARGS, e + h)) / 6;
+    else
+        c = fp_sun_C(FP_SUN_ARGS, e);
+    /* Into the light: the run before was dark, C(start) is subtracted. */
+    r->S += r->lit ? -c : c;
+    r->pending = 0;
+}
+
+/* The stretch [t0, t1] is lit or not. */
+FP_FN void fp_runs_emit(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
+                        FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                        FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
+                        FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid, fp_real ox,
+                        fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real t0,
+                        fp_real t1, int lit)
+{
+    if (!(t1 > t0) || lit == r->lit)
+        return;
+    /* A new edge at t0: settle the one before it (its run ends here). */
+    if (r->pending)
+        fp_runs_settle(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t0);
+    r->prev_len = t0 - r->start;
+    r->start = t0;
+    r->lit = lit;
+    r->pending = 1;
+}
+
+/* The sun's share along the ray over [ta, tb] (tb may be infinite where
+ * the closed form applies), without albedo, E and the phase function:
+ * int sigma tau V tau_sun dt.  h0: the longest step where C is carried;
+ * od_total the ray's whole optical depth (what lies beyond a carried tb). */
+FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                            FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
+                            FP_GLOBAL const float *smap, FP_GLOBAL const float *grid,
+                            fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
+                            fp_real dz, fp_real ta, fp_real tb, int layered, fp_real h0,
+                            fp_real od_total)
+{
+    fp_sun_acc_t acc, *a = &acc;
+    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
+    a->layered = layered;
+    a->e0 = 1;
+    a->k = 1;
+    if (layered && (int)lt[FP_LT_SELF] != FP_SELF_OFF) {
+        a->e0 = exp(-fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, l[0], l[1], l[2], FP_INF, 0));
+        a->k = 1 - dy / l[1];
+    }
+    /* Carried: from ta, where the camera's optical depth is computed once. */
+    a->t = ta;
+    a->u = ta > 0 ? fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0) : 0;
+    a->C = 0;
+    a->T = !layered && (int)lt[FP_LT_SELF] != FP_SELF_OFF
+               ? fp_sun_tau(fp, lvi, lvf, coef, occ, lt, grid, ox + ta * dx, oy + ta * dy,
+                            oz + ta * dz)
+               : 1;
+    a->hmax = h0;
+    a->h = h0;
+    a->hmin = h0 * (fp_real)(1.0 / 256);
+
+    /* The map's texel coordinates and depth along the ray: affine. */
+    FP_CONSTANT const fp_real *m = lt + FP_LT_SM_NDC;
+    FP_CONSTANT const fp_real *cz = lt + FP_LT_SM_Z;
+    int W = (int)lt[FP_LT_SM_W], H = (int)lt[FP_LT_SM_H], NL = (int)lt[FP_LT_SM_LEVELS];
+    fp_real U0 = (ox * m[0] + oy * m[4] + oz * m[8] + m[12]) * W;
+    fp_real dU = (dx * m[0] + dy * m[4] + dz * m[8]) * W;
+    fp_real V0 = (ox * m[1] + oy * m[5] + oz * m[9] + m[13]) * H;
+    fp_real dV = (dx * m[1] + dy * m[5] + dz * m[9]) * H;
+    fp_real Z0 = ox * cz[0] + oy * cz[1] + oz * cz[2] + cz[3];
+    fp_real dZ = dx * cz[0] + dy * cz[1] + dz * cz[2];
+
+    fp_runs_t runs, *r = &runs;
+    r->lit = 1;
+    r->start = ta;
+    r->pending = 0;
+    r->prev_len = 0;
+    fp_real tex = fmax(fabs(dU), fabs(dV));
+    r->hr = tex > 0 ? lt[FP_LT_SM_RADIUS] / tex : (fp_real)FP_INF;
+    r->S = -fp_sun_C(FP_SUN_ARGS, ta);
+#define FP_EMIT(t0, t1, lit)                                                                    \
+    fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t0, t1, lit)
+
+    /* The map's rectangle: outside it everything is lit. */
+    fp_real ma = ta, mb = tb;
+    fp_clip(U0, dU, 0, (fp_real)W, &ma, &mb);
+    fp_clip(V0, dV, 0, (fp_real)H, &ma, &mb);
+    if (mb > ma) {
+        fp_real t = ma;
+        int ix = (int)fmin(fmax(floor(U0 + t * dU), (fp_real)0), (fp_real)(W - 1));
+        int iy = (int)fmin(fmax(floor(V0 + t * dV), (fp_real)0), (fp_real)(H - 1));
+        int L = NL;
+        int offs[FP_SM_MAX_LEVELS + 1];
+        offs[0] = 0;
+        for (int k = 1; k <= NL; k++)
+            offs[k] = k == 1 ? W * H
+                             : offs[k - 1] + 2 * ((W + (1 << (k - 1)) - 1) >> (k - 1)) *
+                                                 ((H + (1 << (k - 1)) - 1) >> (k - 1));
+        int guard = 16 * (W + H) + 64;
+        while (t < mb && guard-- > 0) {
+            int s = 1 << L;
+            int bi = ix >> L, bj = iy >> L;
+            fp_real tX = dU > 0 ? ((fp_real)((bi + 1) * s) - U0) / dU
+                         : dU < 0 ? ((fp_real)(bi * s) - U0) / dU : (fp_real)FP_INF;
+            fp_real tY = dV > 0 ? ((fp_real)((bj + 1) * s) - V0) / dV
+                         : dV < 0 ? ((fp_real)(bj * s) - V0) / dV : (fp_real)FP_INF;
+            fp_real t1 = fmax(fmin(fmin(tX, tY), mb), t);
+            fp_real za = Z0 + t * dZ;
+            fp_real zb1 = dZ == 0 ? Z0 : Z0 + t1 * dZ;
+            fp_real zlo = fmin(za, zb1), zhi = fmax(za, zb1);
+            if (L == 0) {
+                fp_real zm = smap[iy * W + ix];
+                if (zhi <= zm) {
+                    FP_EMIT(t, t1, 1);
+                } else if (zlo > zm) {
+                    FP_EMIT(t, t1, 0);
+                } else {
+                    /* z(tc) = zm within the stretch: lit before it when z rises. */
+                    fp_real tc = fmin(fmax((zm - Z0) / dZ, t), t1);
+                    FP_EMIT(t, tc, dZ > 0);
+                    FP_EMIT(tc, t1, dZ < 0);
+                }
+            } else {
+                int wl = (W + s - 1) >> L;
+                int o = offs[L] + 2 * (bj * wl + bi);
+                fp_real mn = smap[o], mx = smap[o + 1];
+                if (zhi <= mn) {
+                    FP_EMIT(t, t1, 1);
+                } else if (zlo > mx) {
+                    FP_EMIT(t, t1, 0);
+                } else {
+                    L--;
+                    continue;
+                }
+            }
+            if (t1 >= mb) {
+                t = mb;
+                break;
+            }
+            /* Into the next texel: the axis crossed moves one block on,
+             * the other stays within the block's row or column. */
+            if (tX <= tY) {
+                ix = dU > 0 ? (bi + 1) * s : bi * s - 1;
+                int jv = (int)floor(V0 + t1 * dV);
+                iy = jv < bj * s ? bj * s : jv > bj * s + s - 1 ? bj * s + s - 1 : jv;
+            } else {
+                iy = dV > 0 ? (bj + 1) * s : bj * s - 1;
+                int iu = (int)floor(U0 + t1 * dU);
+                ix = iu < bi * s ? bi * s : iu > bi * s + s - 1 ? bi * s + s - 1 : iu;
+            }
+            iy = iy < 0 ? 0 : iy > H - 1 ? H - 1 : iy;
+            ix = ix < 0 ? 0 : ix > W - 1 ? W - 1 : ix;
+            t = t1;
+            L = L < NL ? L + 1 : NL;
+        }
+        /* Left the map (or the guard ran out): lit on from there. */
+        if (t < mb)
+            FP_EMIT(t, mb, 1);
+    }
+    FP_EMIT(mb > ma ? mb : ta, tb, 1);
+    if (r->pending)
+        fp_runs_settle(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, tb);
+    if (r->lit) {
+        r->S += fp_sun_C(FP_SUN_ARGS, tb);
+        /* Carried to where the fog stopped mattering (an unbounded ray):
+         * the rest of the fog with the light of the last point. */
+        if (!layered)
+            r->S += a->T * fmax(exp(-a->u) - exp(-od_total), (fp_real)0);
+    }
+#undef FP_EMIT
+    return r->S;
+}
+#undef FP_SUN_ARGS
+
+#endif
