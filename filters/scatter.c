@@ -513,6 +513,51 @@ double fp_scatter_ray(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
     return fp_scatter_ray_at(d, fog, v, view_packed, depth, o, dir, len, 0, S);
 }
 
+double fp_scatter_sun_brute(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                            const double o[3], const double dir[3], double len, long n,
+                            double (*vis)(void *ctx, const double p[3]), void *ctx)
+{
+    const double *fp = fog->fp, *lt = d->lt, *l = lt + FP_LT_SUN_DIR;
+    const fp_fog_tables_t *t = fog->tables;
+    const float *smap = d->smap ? d->smap : no_map;
+    double ta, tb;
+    if (n < 1 || !fp_fog_span(fp, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, &ta, &tb))
+        return 0;
+    if (isinf(tb)) {
+        double od0 = fp_fog_od(fp, TABLES(t), o[0], o[1], o[2], dir[0], dir[1], dir[2], ta, 0);
+        double all = fp_fog_od(fp, TABLES(t), o[0], o[1], o[2], dir[0], dir[1], dir[2],
+                               INFINITY, 0);
+        double step = 1;
+        for (; step < 1e7; step *= 2) {
+            double od = fp_fog_od(fp, TABLES(t), o[0], o[1], o[2], dir[0], dir[1], dir[2],
+                                  ta + step, 0);
+            if (od - od0 > 25 || (isfinite(all) && all - od <= 1e-9 * all))
+                break;
+        }
+        tb = ta + step;
+    }
+    double dt = (tb - ta) / n, s = 0, prev = ta + 0.5 * dt;
+    double u = fp_fog_od(fp, TABLES(t), o[0], o[1], o[2], dir[0], dir[1], dir[2], prev, 0);
+    int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
+    for (long i = 0; i < n; i++) {
+        double tm = ta + (i + 0.5) * dt;
+        double p[3] = { o[0] + tm * dir[0], o[1] + tm * dir[1], o[2] + tm * dir[2] };
+        if (i > 0)
+            u += fp_fog_od(fp, TABLES(t), o[0] + prev * dir[0], o[1] + prev * dir[1],
+                           o[2] + prev * dir[2], dir[0], dir[1], dir[2], tm - prev, 0);
+        prev = tm;
+        double v = vis ? vis(ctx, p) : fp_shadow_map(lt, smap, p[0], p[1], p[2]);
+        if (v == 0)
+            continue;
+        double sig = fp_sigma_t(fp, FP_TABLES3(fp_fog_tables_or_empty(t)), p[0], p[1], p[2]);
+        double ts = self ? exp(-fp_fog_od(fp, TABLES(t), p[0], p[1], p[2], l[0], l[1], l[2],
+                                          INFINITY, 0))
+                         : 1;
+        s += sig * exp(-u) * v * ts * dt;
+    }
+    return s;
+}
+
 /* The self-shadow grid on the CPU (exact optical depth at each node). */
 static int fill_grid(fp_scatter_data_t *d, const fp_integrate_data_t *fog)
 {

@@ -68,6 +68,16 @@ double fp_scatter_ray_at(const fp_scatter_data_t *d, const fp_integrate_data_t *
                          const double o[3], const double dir[3], double len, double offset,
                          double S[3]);
 
+/* Brute force for the sun's share of one ray (issue 13's judge):
+ * int sigma tau V tau_sun dt over the ray's fog by the midpoint rule with
+ * n steps, the camera's optical depth carried step by step exactly,
+ * tau_sun exact per point (when self-shadowing is on), V point-sampled:
+ * vis(ctx, p) when given, else the shadow map's texel (fp_shadow_map).  An
+ * unbounded ray stops where less than 1e-9 of its light is left. */
+double fp_scatter_sun_brute(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
+                            const double o[3], const double dir[3], double len, long n,
+                            double (*vis)(void *ctx, const double p[3]), void *ctx);
+
 /* CPU reference for a whole frame: fog[4*i] = (S.r, S.g, S.b, tau). */
 int fp_scatter_process(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                        const fp_view_t *v, const float *depth, float *out);

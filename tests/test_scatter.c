@@ -1981,48 +1981,13 @@ static void caster_map(rig_t *r, const caster_scene_t *s, double texel)
     r->sd.serial = ++serial;
 }
 
-/* Visibility of the sun from p: the map's (point-sampled) or, with
- * geometry, the scene's own. */
-typedef struct {
-    const rig_t *r;
-    const caster_scene_t *geom;   /* NULL: the map */
-    const fp_fog_tables_t *t;
-} brute_t;
-
-/* Brute force (issue 13): int sigma tau V tau_sun dt over the ray's fog,
- * the midpoint rule with n steps, the camera's optical depth carried step
- * by step exactly, V point-sampled, tau_sun exact per point. */
-static double shafts_brute(const brute_t *b, const double o[3], const double d[3], double len,
-                           long n)
+/* The scene's own visibility of the sun from p (the map's is the
+ * default of fp_scatter_sun_brute). */
+static double caster_vis(void *ctx, const double p[3])
 {
-    const rig_t *r = b->r;
-    const double *fp = r->fog.fp, *lt = r->sd.lt, *l = lt + FP_LT_SUN_DIR;
-    double ta, tb;
-    if (!fp_fog_span(fp, o[0], o[1], o[2], d[0], d[1], d[2], len, &ta, &tb))
-        return 0;
-    assert_true(isfinite(tb));
-    double dt = (tb - ta) / n, s = 0, prev = 0;
-    double u = fp_fog_od(fp, TABLES(b->t), o[0], o[1], o[2], d[0], d[1], d[2], ta + 0.5 * dt, 0);
-    int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
-    for (long i = 0; i < n; i++) {
-        double t = ta + (i + 0.5) * dt;
-        double p[3] = { o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2] };
-        if (i > 0) {
-            double q[3] = { o[0] + prev * d[0], o[1] + prev * d[1], o[2] + prev * d[2] };
-            u += fp_fog_od(fp, TABLES(b->t), q[0], q[1], q[2], d[0], d[1], d[2], t - prev, 0);
-        }
-        prev = t;
-        double v = b->geom ? !(caster_hit(b->geom, p, l) < INFINITY)
-                           : fp_shadow_map(lt, r->sd.smap, p[0], p[1], p[2]);
-        if (v == 0)
-            continue;
-        double sig = fp_sigma_t(fp, FP_TABLES3(fp_fog_tables_or_empty(b->t)), p[0], p[1], p[2]);
-        double ts = self ? exp(-fp_fog_od(fp, TABLES(b->t), p[0], p[1], p[2], l[0], l[1], l[2],
-                                          INFINITY, 0))
-                         : 1;
-        s += sig * exp(-u) * v * ts * dt;
-    }
-    return s;
+    const caster_scene_t *s = ctx;
+    const double l[3] = { 0, sin(SH_ELEV), cos(SH_ELEV) };
+    return caster_hit(s, p, l) < INFINITY ? 0 : 1;
 }
 
 /* fogpipe's sun share of the same ray: S.r over albedo E p (the options
@@ -2109,13 +2074,12 @@ static void test_shafts_brute(void **state)
         rig_t r;
         sh_rig(&r, extra, cases[ci].fogmap ? fmap : NULL, 24, 24);
         caster_map(&r, &s, 0.05);
-        brute_t b = { &r, NULL, r.fog.tables };
         double worst = 0, smax = 0, got[64], want[64];
         int nr = cases[ci].rays;
         for (int k = 0; k < nr; k++) {
             double o[3], d[3], len;
             sh_ray(&s, k * (60 / nr), 60, o, d, &len);
-            want[k] = shafts_brute(&b, o, d, len, cases[ci].steps);
+            want[k] = fp_scatter_sun_brute(&r.sd, &r.fog, o, d, len, cases[ci].steps, NULL, NULL);
             got[k] = shafts_fast(&r, o, d, len);
             smax = fmax(smax, want[k]);
         }
@@ -2223,12 +2187,11 @@ static void test_shafts_converge(void **state)
     rig_t r;
     const char *extra[] = { "self-shadow", "exact", NULL };
     sh_rig(&r, extra, NULL, 0, 0);
-    brute_t geo = { &r, &s, NULL };
     double smax = 0;
     for (int k = 0; k < nr; k++) {
         double o[3], d[3], len;
         sh_ray(&s, k * 2 + 1, 2 * nr, o, d, &len);
-        want[k] = shafts_brute(&geo, o, d, len, 20000);
+        want[k] = fp_scatter_sun_brute(&r.sd, &r.fog, o, d, len, 20000, caster_vis, &s);
         smax = fmax(smax, want[k]);
     }
     for (int ti = 0; ti < 4; ti++) {
