@@ -454,6 +454,37 @@ FP_LFN void fp_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_rea
         S[c] = acc * row[FP_LL_I + c];
 }
 
+/* S += the ambient light's closed form (seed 000 eq. 4) and the local
+ * lights of the fast rule (when fast; in OpenCL they run apart); returns
+ * tau. */
+FP_FN fp_real fp_scatter_ambient_lights(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt,
+                                        fp_real ox, fp_real oy, fp_real oz, fp_real dx,
+                                        fp_real dy, fp_real dz, fp_real len, fp_real od_total,
+                                        int fast, fp_real *S)
+{
+    for (int c = 0; c < 3; c++)
+        S[c] += lt[FP_LT_ALBEDO] * -expm1(-od_total) * lt[FP_LT_AMB + c];
+#ifndef FP_LIGHTS_APART
+    for (int k = 0; fast && k < (int)lt[FP_LT_NLIGHTS]; k++) {
+        fp_real Sk[3];
+        fp_light_ray(fp, lt, k, ox, oy, oz, dx, dy, dz, len, Sk);
+        for (int c = 0; c < 3; c++)
+            S[c] += Sk[c];
+    }
+#else
+    (void)fp;
+    (void)ox;
+    (void)oy;
+    (void)oz;
+    (void)dx;
+    (void)dy;
+    (void)dz;
+    (void)len;
+    (void)fast;
+#endif
+    return exp(-od_total);
+}
+
 /* The fog layer of one view ray: S (3) and returns tau. */
 FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                              FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
@@ -481,21 +512,31 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
      * ambient term is the closed form and the lights are done. */
     int nl = (int)lt[FP_LT_NLIGHTS];
     int fast_lights = lt[FP_LT_LIGHT_QUAD] != 0 && fp[FP_F_HAS_MAP] == 0;
-    if (fast_lights && lt[FP_LT_SUN_ON] == 0) {
-        for (int c = 0; c < 3; c++)
-            S[c] = albedo * -expm1(-od_total) * lt[FP_LT_AMB + c];
-#ifndef FP_LIGHTS_APART
-        for (int k = 0; k < nl; k++) {
-            fp_real Sk[3];
-            fp_light_ray(fp, lt, k, ox, oy, oz, dx, dy, dz, len, Sk);
-            for (int c = 0; c < 3; c++)
-                S[c] += Sk[c];
-        }
-#endif
-        return tau;
+    if (fast_lights && lt[FP_LT_SUN_ON] == 0)
+        return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total, 1, S);
+    /* The sun with its shadow map: the exact runs of kernels/shafts_core.h
+     * (the segments below then carry only the ambient light and the local
+     * lights that need them).  In fog of height alone C is a closed form
+     * to the span's end, infinite or not. */
+    FP_CONSTANT const fp_real *ph = lt + FP_LT_PHASE;
+    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
+    int kind = (int)ph[0];
+    fp_real ph_sun = fp_phase(kind, ph[1], ph[2], dx * l[0] + dy * l[1] + dz * l[2]);
+    int shafts = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP;
+    int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
+    int sides = !(isinf(fp[FP_F_BOX]) && isinf(fp[FP_F_BOX + 2]) && isinf(fp[FP_F_BOX + 3]) &&
+                  isinf(fp[FP_F_BOX + 5]));
+    int layered = fp[FP_F_HAS_MAP] == 0 && (!self || (!sides && l[1] > (fp_real)1e-3));
+    if (shafts && layered) {
+        if (ph_sun > 0)
+            fp_shafts_add(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx, dy, dz, ta, tb,
+                          1, 0, od_total, albedo * ph_sun, S);
+        ph_sun = 0;
+        if (nl == 0 || fast_lights)
+            return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total,
+                                             fast_lights, S);
     }
     fp_real od_stop = lt[FP_LT_OD_STOP];
-    fp_real tb_span = tb;
     {
         /* Go only as far as the fog still matters: until its optical depth
          * from ta passes od_stop, or nearly all of it is behind (a sky
@@ -516,42 +557,18 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
             tb = ta + fmin(fmin(step, fp[FP_F_CAP]), span);
         }
     }
-    FP_CONSTANT const fp_real *ph = lt + FP_LT_PHASE;
-    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
-    int kind = (int)ph[0];
-    fp_real ph_sun = fp_phase(kind, ph[1], ph[2], dx * l[0] + dy * l[1] + dz * l[2]);
     int n = (int)lt[FP_LT_STEPS];
     n = n < 1 ? 1 : n > FP_SCATTER_MAX_STEPS_ / 2 ? FP_SCATTER_MAX_STEPS_ / 2 : n;
-    /* The sun with its shadow map: the exact runs of kernels/shafts_core.h;
-     * the segments below then carry the ambient light and the local lights
-     * that need them. */
-    if ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP) {
-        if (ph_sun > 0) {
-            int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
-            int sides = !(isinf(fp[FP_F_BOX]) && isinf(fp[FP_F_BOX + 2]) &&
-                          isinf(fp[FP_F_BOX + 3]) && isinf(fp[FP_F_BOX + 5]));
-            int layered = fp[FP_F_HAS_MAP] == 0 &&
-                          (!self || (!sides && l[1] > (fp_real)1e-3));
-            fp_real sun = fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx,
-                                        dy, dz, ta, layered ? tb_span : tb, layered,
-                                        (tb - ta) / n, od_total);
-            for (int c = 0; c < 3; c++)
-                S[c] += albedo * ph_sun * sun * lt[FP_LT_SUN_E + c];
-        }
+    /* The sun with its shadow map where C is carried (a fogmap, a box
+     * with sides): to where the fog stops mattering, as the segments. */
+    if (shafts && !layered) {
+        if (ph_sun > 0)
+            fp_shafts_add(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx, dy, dz, ta, tb,
+                          0, (tb - ta) / n, od_total, albedo * ph_sun, S);
         ph_sun = 0;
-        if (nl == 0 || fast_lights) {
-            for (int c = 0; c < 3; c++)
-                S[c] += albedo * -expm1(-od_total) * lt[FP_LT_AMB + c];
-#ifndef FP_LIGHTS_APART
-            for (int k = 0; fast_lights && k < nl; k++) {
-                fp_real Sk[3];
-                fp_light_ray(fp, lt, k, ox, oy, oz, dx, dy, dz, len, Sk);
-                for (int c = 0; c < 3; c++)
-                    S[c] += Sk[c];
-            }
-#endif
-            return tau;
-        }
+        if (nl == 0 || fast_lights)
+            return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total,
+                                             fast_lights, S);
     }
     /* Interleaved sampling: the first segment is `offset` of one long,
      * which shifts every later end along the ray. */

@@ -306,4 +306,19 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
 }
 #undef FP_SUN_ARGS
 
+/* S += w E_sun times the sun's share (fp_shafts_sun). */
+FP_FN void fp_shafts_add(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                         FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                         FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
+                         FP_GLOBAL const float *smap, FP_GLOBAL const float *grid, fp_real ox,
+                         fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real ta,
+                         fp_real tb, int layered, fp_real h0, fp_real od_total, fp_real w,
+                         fp_real *S)
+{
+    fp_real sun = fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx, dy, dz,
+                                ta, tb, layered, h0, od_total);
+    for (int c = 0; c < 3; c++)
+        S[c] += w * sun * lt[FP_LT_SUN_E + c];
+}
+
 #endif
