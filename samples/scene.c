@@ -52,11 +52,12 @@
  * at).  The points the sun map shadows and those the traced shadow rays
  * shadow overlap by at least FP_CHECK_SUN (intersection over union), judged
  * when the map's texels are at most FP_CHECK_TEXEL meters: half the
- * thinnest caster (the wall, 1 m), so no caster falls between texels. */
+ * thinnest caster or gap (the wall's slits, 0.5 m), so none falls between
+ * texels. */
 #define FP_CHECK_PX 0.05
 #define FP_CHECK_DEPTH 1e-6
 #define FP_CHECK_SUN 0.95
-#define FP_CHECK_TEXEL 0.5
+#define FP_CHECK_TEXEL 0.25
 
 typedef struct { double x, y, z; } vec3;
 
@@ -79,12 +80,22 @@ typedef struct { vec3 lo, hi, color; } box_t;
 typedef struct { vec3 c; double r; vec3 color; } sphere_t;
 
 static const box_t boxes[] = {
-    /* the wall at z = 40, 6 m high, with four 2 m gaps for light shafts */
+    /* the wall at z = 40, 6 m high, with four 2 m gaps for light shafts
+     * and, in its middle stretch, three narrow 0.5 m slits */
     { { -40, 0, 40 }, { -17, 6, 41 }, { 0.55, 0.5, 0.45 } },
     { { -15, 0, 40 }, { -7, 6, 41 }, { 0.55, 0.5, 0.45 } },
-    { { -5, 0, 40 }, { 3, 6, 41 }, { 0.55, 0.5, 0.45 } },
+    { { -5, 0, 40 }, { -3.5, 6, 41 }, { 0.55, 0.5, 0.45 } },
+    { { -3, 0, 40 }, { -1.5, 6, 41 }, { 0.55, 0.5, 0.45 } },
+    { { -1, 0, 40 }, { 0.5, 6, 41 }, { 0.55, 0.5, 0.45 } },
+    { { 1, 0, 40 }, { 3, 6, 41 }, { 0.55, 0.5, 0.45 } },
     { { 5, 0, 40 }, { 13, 6, 41 }, { 0.55, 0.5, 0.45 } },
     { { 15, 0, 40 }, { 40, 6, 41 }, { 0.55, 0.5, 0.45 } },
+    /* thin pillars before the wall (0.6 m square, 5 m high): their
+     * shadows cut the shafts */
+    { { -11.3, 0, 34 }, { -10.7, 5, 34.6 }, { 0.5, 0.48, 0.46 } },
+    { { -6.3, 0, 34 }, { -5.7, 5, 34.6 }, { 0.5, 0.48, 0.46 } },
+    { { 2.7, 0, 34 }, { 3.3, 5, 34.6 }, { 0.5, 0.48, 0.46 } },
+    { { 11.7, 0, 34 }, { 12.3, 5, 34.6 }, { 0.5, 0.48, 0.46 } },
     /* near boxes */
     { { -8, 0, 20 }, { -5, 3, 23 }, { 0.7, 0.25, 0.2 } },
     { { 6, 0, 15 }, { 9, 5, 18 }, { 0.2, 0.4, 0.7 } },
@@ -637,7 +648,7 @@ static const fp_scene_opt_t options[] = {
     { "--layout", "plain|blender", "plain",
       "channels R,G,B,A,Z, or Blender's ViewLayer.Combined.R,G,B,A and ViewLayer.Depth.Z",
       OPT_LAYOUT, FP_FIELD(blender), 0, 1 },
-    { "--shadow-size", "N", "512", "sun depth map size in texels (0: no shadow.####.exr)",
+    { "--shadow-size", "N", "1024", "sun depth map size in texels (0: no shadow.####.exr)",
       OPT_INT, FP_FIELD(shadow_size), 0, 16384 },
     { "--sky-depth", "V", "inf", "Z of sky pixels: inf, nan or a positive number (Cycles: 1e10)",
       OPT_DEPTH, FP_FIELD(sky_depth), 0, 0 },
