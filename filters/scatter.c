@@ -178,8 +178,9 @@ const fp_option_t fp_scatter_options[] = {
       "map)", NULL, 0 },
     { "screen-shadow", 0, FP_OPT_VEC, LI(screen_shadow), 3, 3, "32,20,1", 0, 1e6, NULL,
       "STEPS,DIST,THICK",
-      "--shadows screen: steps toward the sun, how far (scene units), and the thickness "
-      "assumed behind what the depth buffer shows", NULL, 0 },
+      "--shadows screen: STEPS is no longer used (the walk over the depth buffer is exact; "
+      "kept so that command lines run), how far toward the sun (scene units), and the "
+      "thickness assumed behind what the depth buffer shows", NULL, 0 },
     { "self-shadow", 0, FP_OPT_ENUM, LI(self_shadow), 0, 0, "exact", 0, 0, "off|exact|map",
       "off|exact|map",
       "fog shadowing itself: sunlight reaching a point is attenuated by the fog between it "
@@ -475,6 +476,20 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
         int rc = load_shadow_map(p, d, frame);
         if (rc)
             return rc;
+    }
+    if ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN) {
+        /* The deepest thing the depth buffer shows: no shadow reaches
+         * beyond it (fp_shafts_screen). */
+        float view[FP_VIEW_FLOATS];
+        fp_view_pack(v, view);
+        double zmax = 0;
+        for (int y = 0; y < v->height; y++)
+            for (int x = 0; x < v->width; x++) {
+                double z = fp_scene_z(view, depth, v->width, x, y);
+                if (z < INFINITY)
+                    zmax = fmax(zmax, z);
+            }
+        lt[FP_LT_SS_ZMAX] = zmax;
     }
     /* Without a fogmap the exact optical depth toward the sun is a closed
      * form: faster than any grid. */

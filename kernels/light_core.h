@@ -49,7 +49,8 @@
 #define FP_LT_INTERLEAVE 76 /* 2: n x m pattern of per-pixel sample offsets (1, 1: off) */
 #define FP_LT_LIGHT_QUAD 78 /* local lights: 0 equiangular panels, 1 the fast rule (no fogmap) */
 #define FP_LT_SM_LEVELS 79  /* levels of the shadow map's min-max pyramid (shafts_core.h) */
-#define FP_LT_LIGHTS 80      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
+#define FP_LT_SS_ZMAX 80    /* --shadows screen: the deepest finite z of the depth buffer */
+#define FP_LT_LIGHTS 84      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
 #define FP_LT_LIGHT_STRIDE 16
 #define FP_LT_MAX_LIGHTS 8
 #define FP_LT_COUNT (FP_LT_LIGHTS + FP_LT_MAX_LIGHTS * FP_LT_LIGHT_STRIDE)
@@ -158,41 +159,229 @@ FP_FN fp_real fp_scene_z(FP_CONSTANT const float *view, FP_GLOBAL const float *d
     return zc;
 }
 
-/* Screen-space shadows: march from the point toward the sun and look for
- * something the camera's depth buffer shows in front of the march, by at
- * most the assumed thickness.  What the camera does not see (off screen,
- * hidden behind other things) casts no shadow: the documented limits. */
+/* Screen-space shadows as intervals (--shadows screen).  A point P is in
+ * shadow when its ray toward the sun, P + s l with 0 < s <= DIST, passes
+ * through what a depth-buffer pixel shows, taken as a cell of the pixel's
+ * footprint THICK deep behind its camera-space z: the march of before
+ * with s continuous.  For the points of a view ray, X(t, s) = o + t d + s l
+ * lies in one plane through the camera, and what projects into pixel q
+ * with camera z in [z_q, z_q + THICK] is a convex polygon of (t, s) (each
+ * condition is linear in t and s after the homogeneous divide is
+ * multiplied out), whose shadow on the t axis is an interval: walking the
+ * pixels that the plane's line crosses on screen, from the view ray's own
+ * pixel toward the sun as far as DIST reaches, gives the view ray's
+ * shadowed set exactly, as a union of intervals (merged, sorted). */
+#define FP_SS_MAX_IV 48
+
+/* h (camera (ux, uy, uw) -> NDC homogeneous) of the screen vector of a
+ * camera vector V: perspective (Vx, Vy, Vz); orthographic (Vx, Vy, w),
+ * w = 1 for a point, 0 for a direction. */
+FP_FN void fp_ss_ndc(FP_CONSTANT const fp_real *h, const fp_real *V, int ortho, fp_real w,
+                     fp_real *n)
+{
+    fp_real z = ortho ? w : V[2];
+    for (int k = 0; k < 3; k++)
+        n[k] = h[3 * k] * V[0] + h[3 * k + 1] * V[1] + h[3 * k + 2] * z;
+}
+
+/* Clip the convex polygon (t, s) in p (n vertices) by A t + B s + C >= 0. */
+FP_FN int fp_ss_clip(fp_real *pt, fp_real *ps, int n, fp_real A, fp_real B, fp_real C)
+{
+    fp_real qt[16], qs[16];
+    int m = 0;
+    for (int k = 0; k < n && m < 14; k++) {
+        int k1 = k + 1 == n ? 0 : k + 1;
+        fp_real va = A * pt[k] + B * ps[k] + C, vb = A * pt[k1] + B * ps[k1] + C;
+        if (va >= 0) {
+            qt[m] = pt[k];
+            qs[m++] = ps[k];
+        }
+        if ((va >= 0) != (vb >= 0)) {
+            fp_real f = va / (va - vb);
+            qt[m] = pt[k] + f * (pt[k1] - pt[k]);
+            qs[m++] = ps[k] + f * (ps[k1] - ps[k]);
+        }
+    }
+    for (int k = 0; k < m; k++) {
+        pt[k] = qt[k];
+        ps[k] = qs[k];
+    }
+    return m;
+}
+
+/* The t-interval of (t, s) in [t0, t1] x [0, smax] shadowed through pixel
+ * (i, j) of scene z zs: X = C0 + t D + s L in camera space, nt, ns, nc
+ * their NDC rows (fp_ss_ndc); for a point (t0 = t1), its s-interval.
+ * Returns 0 when none. */
+FP_FN int fp_ss_pixel(FP_CONSTANT const float *view, const fp_real *nt, const fp_real *ns,
+                      const fp_real *nc, const fp_real *D, const fp_real *L, const fp_real *C0,
+                      int i, int j, fp_real zs, fp_real thick, fp_real t0, fp_real t1,
+                      fp_real smax, int point, fp_real *ia, fp_real *ib)
+{
+    fp_real pt[16] = { t0, t1, t1, t0 }, ps[16] = { 0, 0, smax, smax };
+    int n = 4;
+    for (int ax = 0; ax < 2 && n > 0; ax++) {
+        fp_real sc = view[FP_VIEW_NDC_SCALE + ax], off = view[FP_VIEW_NDC_OFFSET + ax];
+        fp_real a = ((ax ? j : i) - (fp_real)0.5 + off) * sc, b = a + sc;
+        fp_real lo = fmin(a, b), hi = fmax(a, b);
+        /* lo <= N_ax / N_3 <= hi, N_3 > 0 */
+        n = fp_ss_clip(pt, ps, n, nt[ax] - lo * nt[2], ns[ax] - lo * ns[2], nc[ax] - lo * nc[2]);
+        n = fp_ss_clip(pt, ps, n, hi * nt[2] - nt[ax], hi * ns[2] - ns[ax], hi * nc[2] - nc[ax]);
+    }
+    n = fp_ss_clip(pt, ps, n, nt[2], ns[2], nc[2]);
+    n = fp_ss_clip(pt, ps, n, D[2], L[2], C0[2] - zs);
+    n = fp_ss_clip(pt, ps, n, -D[2], -L[2], zs + thick - C0[2]);
+    if (n < 3)
+        return 0;
+    /* A point (t0 = t1): shadowed when some s is left. */
+    fp_real lo = FP_INF, hi = -FP_INF;
+    for (int k = 0; k < n; k++) {
+        lo = fmin(lo, point ? ps[k] : pt[k]);
+        hi = fmax(hi, point ? ps[k] : pt[k]);
+    }
+    *ia = lo;
+    *ib = hi;
+    return hi > lo;
+}
+
+/* Add [a, b] to the sorted disjoint intervals (n of them); when full, the
+ * two nearest merge (more shadow, never less: documented). */
+FP_FN int fp_ss_insert(fp_real *iv, int n, fp_real a, fp_real b)
+{
+    int k = 0;
+    while (k < n && iv[2 * k + 1] < a)
+        k++;
+    int e = k;
+    while (e < n && iv[2 * e] <= b) {
+        a = fmin(a, iv[2 * e]);
+        b = fmax(b, iv[2 * e + 1]);
+        e++;
+    }
+    /* [k, e) merge into one at k */
+    int shift = 1 - (e - k);
+    if (shift > 0 && n == FP_SS_MAX_IV) {
+        /* full: widen the nearest neighbour instead */
+        if (k < n && (k == 0 || iv[2 * k] - b < a - iv[2 * k - 1]))
+            iv[2 * k] = a;
+        else
+            iv[2 * k - 1] = b;
+        return n;
+    }
+    if (shift > 0)
+        for (int q = n - 1; q >= k; q--) {
+            iv[2 * q + 2] = iv[2 * q];
+            iv[2 * q + 3] = iv[2 * q + 1];
+        }
+    else if (shift < 0)
+        for (int q = e; q < n; q++) {
+            iv[2 * (q + shift)] = iv[2 * q];
+            iv[2 * (q + shift) + 1] = iv[2 * q + 1];
+        }
+    iv[2 * k] = a;
+    iv[2 * k + 1] = b;
+    return n + shift;
+}
+
+/* The shadowed t of X = o + t d + s l, t in [t0, t1] (t1 finite; d = 0 for
+ * one point, t0 = t1 = 0), from pixel (ax, ay) (the projection of the ray,
+ * in pixel units: pixel i spans [i, i + 1)) toward the sun: into iv,
+ * returns their count.  A point stops at its first shadow. */
+FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
+                     FP_GLOBAL const float *depth, int width, int height, fp_real ox,
+                     fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real t0,
+                     fp_real t1, fp_real ax, fp_real ay, int point, fp_real *iv)
+{
+    FP_CONSTANT const fp_real *m = lt + FP_LT_SS_M, *h = lt + FP_LT_SS_H;
+    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
+    int ortho = view[FP_VIEW_ORTHO] != 0;
+    fp_real dist = lt[FP_LT_SS_DIST], thick = lt[FP_LT_SS_THICK];
+    fp_real q[3] = { ox - view[0], oy - view[1], oz - view[2] };
+    fp_real D[3], L[3], C0[3], nt[3], ns[3], nc[3];
+    for (int k = 0; k < 3; k++) {
+        D[k] = m[3 * k] * dx + m[3 * k + 1] * dy + m[3 * k + 2] * dz;
+        L[k] = m[3 * k] * l[0] + m[3 * k + 1] * l[1] + m[3 * k + 2] * l[2];
+        C0[k] = m[3 * k] * q[0] + m[3 * k + 1] * q[1] + m[3 * k + 2] * q[2];
+    }
+    fp_ss_ndc(h, D, ortho, 0, nt);
+    fp_ss_ndc(h, L, ortho, 0, ns);
+    fp_ss_ndc(h, C0, ortho, 1, nc);
+    /* How far the sun's rays reach on screen: from the nearest point of the
+     * stretch (1 mm on, past a perspective camera's own center), to DIST
+     * or to where they pass behind the camera. */
+    fp_real tr = fmax(t0, fmin((fp_real)1e-3, t1));
+    fp_real czr = C0[2] + tr * D[2];
+    fp_real sr = dist;
+    if (L[2] < 0)
+        sr = fmin(dist, (czr - (fp_real)1e-6 * (1 + fabs(czr))) / -L[2]);
+    if (!(sr > 0) || !(czr > 0))
+        return 0;
+    fp_real nb[3];
+    for (int k = 0; k < 3; k++)
+        nb[k] = nc[k] + tr * nt[k] + sr * ns[k];
+    fp_real bx = nb[0] / nb[2] / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
+    fp_real by = nb[1] / nb[2] / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] +
+                 (fp_real)0.5;
+    /* A 2D DDA over the pixels of [a, b] within the screen. */
+    fp_real ex = bx - ax, ey = by - ay, u0 = 0, u1 = 1;
+    fp_clip(ax, ex, 0, (fp_real)width, &u0, &u1);
+    fp_clip(ay, ey, 0, (fp_real)height, &u0, &u1);
+    if (!(u1 >= u0))
+        return 0;
+    fp_real sx = ax + u0 * ex, sy = ay + u0 * ey;
+    int i = (int)fmin(fmax(floor(sx), (fp_real)0), (fp_real)(width - 1));
+    int j = (int)fmin(fmax(floor(sy), (fp_real)0), (fp_real)(height - 1));
+    int stepx = ex > 0 ? 1 : -1, stepy = ey > 0 ? 1 : -1;
+    fp_real tdx = ex != 0 ? fabs(1 / ex) : (fp_real)FP_INF;
+    fp_real tdy = ey != 0 ? fabs(1 / ey) : (fp_real)FP_INF;
+    fp_real tmx = ex != 0 ? ((i + (ex > 0)) - ax) / ex : (fp_real)FP_INF;
+    fp_real tmy = ey != 0 ? ((j + (ey > 0)) - ay) / ey : (fp_real)FP_INF;
+    int n = 0;
+    for (int guard = 0; guard < 2 * (width + height) + 4; guard++) {
+        fp_real zs = fp_scene_z(view, depth, width, i, j);
+        fp_real a, b;
+        if (zs < FP_INF && fp_ss_pixel(view, nt, ns, nc, D, L, C0, i, j, zs, thick, t0, t1, dist,
+                                       point, &a, &b)) {
+            n = fp_ss_insert(iv, n, a, b);
+            if (point)
+                break;
+        }
+        if (fmin(tmx, tmy) > u1)
+            break;
+        if (tmx < tmy) {
+            i += stepx;
+            tmx += tdx;
+        } else {
+            j += stepy;
+            tmy += tdy;
+        }
+        if (i < 0 || j < 0 || i >= width || j >= height)
+            break;
+    }
+    return n;
+}
+
+/* A point's visibility of the sun under --shadows screen, by the same
+ * rule (the brute force's and the Monte Carlo reference's). */
 FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
                                FP_GLOBAL const float *depth, int width, int height, fp_real x,
                                fp_real y, fp_real z)
 {
-    int n = (int)lt[FP_LT_SS_STEPS];
-    fp_real step = lt[FP_LT_SS_DIST] / n, thick = lt[FP_LT_SS_THICK];
     FP_CONSTANT const fp_real *m = lt + FP_LT_SS_M, *h = lt + FP_LT_SS_H;
-    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
-    for (int s = 1; s <= n; s++) {
-        fp_real qx = x + s * step * l[0] - view[0], qy = y + s * step * l[1] - view[1],
-                qz = z + s * step * l[2] - view[2];
-        fp_real cx = m[0] * qx + m[1] * qy + m[2] * qz;
-        fp_real cy = m[3] * qx + m[4] * qy + m[5] * qz;
-        fp_real cz = m[6] * qx + m[7] * qy + m[8] * qz;
-        if (!(cz > 0))
-            return 1;
-        /* Orthographic: the camera's plane point, no division by depth. */
-        int ortho = view[FP_VIEW_ORTHO] != 0;
-        fp_real ux = ortho ? cx : cx / cz, uy = ortho ? cy : cy / cz;
-        fp_real nw = h[6] * ux + h[7] * uy + h[8];
-        fp_real nx = (h[0] * ux + h[1] * uy + h[2]) / nw, ny = (h[3] * ux + h[4] * uy + h[5]) / nw;
-        /* + 0.5: pixel i's center is at i, its area [i - 0.5, i + 0.5). */
-        fp_real px = nx / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
-        fp_real py = ny / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] + (fp_real)0.5;
-        if (!(px >= 0 && py >= 0 && px < width && py < height))
-            return 1;
-        fp_real zs = fp_scene_z(view, depth, width, (int)px, (int)py);
-        if (zs < cz && cz - zs < thick)
-            return 0;
-    }
-    return 1;
+    fp_real q[3] = { x - view[0], y - view[1], z - view[2] }, c[3], n[3];
+    for (int k = 0; k < 3; k++)
+        c[k] = m[3 * k] * q[0] + m[3 * k + 1] * q[1] + m[3 * k + 2] * q[2];
+    if (!(c[2] > 0))
+        return 1;
+    fp_ss_ndc(h, c, view[FP_VIEW_ORTHO] != 0, 1, n);
+    fp_real px = n[0] / n[2] / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
+    fp_real py = n[1] / n[2] / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] +
+                 (fp_real)0.5;
+    if (!(px >= 0 && py >= 0 && px < width && py < height))
+        return 1;
+    fp_real iv[2 * FP_SS_MAX_IV];
+    return fp_ss_walk(lt, view, depth, width, height, x, y, z, 0, 0, 0, 0, 0, px, py, 1, iv) > 0
+               ? (fp_real)0
+               : (fp_real)1;
 }
 
 /* The sun's visibility at a point (geometry only). */

@@ -522,15 +522,16 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
     int kind = (int)ph[0];
     fp_real ph_sun = fp_phase(kind, ph[1], ph[2], dx * l[0] + dy * l[1] + dz * l[2]);
-    int shafts = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP;
+    int shafts = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
+                 (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN;
     int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
     int sides = !(isinf(fp[FP_F_BOX]) && isinf(fp[FP_F_BOX + 2]) && isinf(fp[FP_F_BOX + 3]) &&
                   isinf(fp[FP_F_BOX + 5]));
     int layered = fp[FP_F_HAS_MAP] == 0 && (!self || (!sides && l[1] > (fp_real)1e-3));
     if (shafts && layered) {
         if (ph_sun > 0)
-            fp_shafts_add(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx, dy, dz, ta, tb,
-                          1, 0, od_total, albedo * ph_sun, S);
+            fp_shafts_add(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width, height, ox,
+                          oy, oz, dx, dy, dz, ta, tb, 1, 0, od_total, albedo * ph_sun, S);
         ph_sun = 0;
         if (nl == 0 || fast_lights)
             return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total,
@@ -563,8 +564,9 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
      * with sides): to where the fog stops mattering, as the segments. */
     if (shafts && !layered) {
         if (ph_sun > 0)
-            fp_shafts_add(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx, dy, dz, ta, tb,
-                          0, (tb - ta) / n, od_total, albedo * ph_sun, S);
+            fp_shafts_add(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width, height, ox,
+                          oy, oz, dx, dy, dz, ta, tb, 0, (tb - ta) / n, od_total,
+                          albedo * ph_sun, S);
         ph_sun = 0;
         if (nl == 0 || fast_lights)
             return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total,

@@ -160,19 +160,14 @@ FP_FN void fp_runs_emit(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp_real
     r->pending = 1;
 }
 
-/* The sun's share along the ray over [ta, tb] (tb may be infinite where
- * the closed form applies), without albedo, E and the phase function:
- * int sigma tau V tau_sun dt.  h0: the longest step where C is carried;
- * od_total the ray's whole optical depth (what lies beyond a carried tb). */
-FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
-                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
-                            FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
-                            FP_GLOBAL const float *smap, FP_GLOBAL const float *grid,
-                            fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
-                            fp_real dz, fp_real ta, fp_real tb, int layered, fp_real h0,
-                            fp_real od_total)
+/* The accumulator of C along one ray, from ta. */
+FP_FN void fp_sun_acc_init(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
+                           FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                           FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
+                           FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid,
+                           fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
+                           fp_real dz, fp_real ta, int layered, fp_real h0)
 {
-    fp_sun_acc_t acc, *a = &acc;
     FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
     a->layered = layered;
     a->e0 = 1;
@@ -193,6 +188,59 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     a->h = h0;
     a->hmin = h0 * (fp_real)(1.0 / 256);
 
+}
+
+/* Start the runs at ta (lit). */
+FP_FN void fp_runs_init(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
+                        FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                        FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
+                        FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid, fp_real ox,
+                        fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real ta,
+                        fp_real hr)
+{
+    r->lit = 1;
+    r->start = ta;
+    r->pending = 0;
+    r->prev_len = 0;
+    r->hr = hr;
+    r->S = -fp_sun_C(FP_SUN_ARGS, ta);
+}
+
+/* The last run, to tb; returns the sun's share. */
+FP_FN fp_real fp_runs_finish(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
+                             FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                             FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
+                             FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid,
+                             fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
+                             fp_real dz, fp_real tb, fp_real od_total)
+{
+    if (r->pending)
+        fp_runs_settle(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, tb);
+    if (r->lit) {
+        r->S += fp_sun_C(FP_SUN_ARGS, tb);
+        /* Carried to where the fog stopped mattering (an unbounded ray):
+         * the rest of the fog with the light of the last point. */
+        if (!a->layered)
+            r->S += a->T * fmax(exp(-a->u) - exp(-od_total), (fp_real)0);
+    }
+    return r->S;
+}
+
+/* The sun's share along the ray over [ta, tb] (tb may be infinite where
+ * the closed form applies), without albedo, E and the phase function:
+ * int sigma tau V tau_sun dt.  h0: the longest step where C is carried;
+ * od_total the ray's whole optical depth (what lies beyond a carried tb). */
+FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                            FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
+                            FP_GLOBAL const float *smap, FP_GLOBAL const float *grid,
+                            fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
+                            fp_real dz, fp_real ta, fp_real tb, int layered, fp_real h0,
+                            fp_real od_total)
+{
+    fp_sun_acc_t acc, *a = &acc;
+    fp_sun_acc_init(a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta, layered, h0);
+
     /* The map's texel coordinates and depth along the ray: affine. */
     FP_CONSTANT const fp_real *m = lt + FP_LT_SM_NDC;
     FP_CONSTANT const fp_real *cz = lt + FP_LT_SM_Z;
@@ -205,13 +253,9 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_real dZ = dx * cz[0] + dy * cz[1] + dz * cz[2];
 
     fp_runs_t runs, *r = &runs;
-    r->lit = 1;
-    r->start = ta;
-    r->pending = 0;
-    r->prev_len = 0;
     fp_real tex = fmax(fabs(dU), fabs(dV));
-    r->hr = tex > 0 ? lt[FP_LT_SM_RADIUS] / tex : (fp_real)FP_INF;
-    r->S = -fp_sun_C(FP_SUN_ARGS, ta);
+    fp_runs_init(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta,
+                 tex > 0 ? lt[FP_LT_SM_RADIUS] / tex : (fp_real)FP_INF);
 #define FP_EMIT(t0, t1, lit)                                                                    \
     fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t0, t1, lit)
 
@@ -292,31 +336,80 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             FP_EMIT(t, mb, 1);
     }
     FP_EMIT(mb > ma ? mb : ta, tb, 1);
-    if (r->pending)
-        fp_runs_settle(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, tb);
-    if (r->lit) {
-        r->S += fp_sun_C(FP_SUN_ARGS, tb);
-        /* Carried to where the fog stopped mattering (an unbounded ray):
-         * the rest of the fog with the light of the last point. */
-        if (!layered)
-            r->S += a->T * fmax(exp(-a->u) - exp(-od_total), (fp_real)0);
-    }
 #undef FP_EMIT
-    return r->S;
+    return fp_runs_finish(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, tb,
+                          od_total);
 }
 #undef FP_SUN_ARGS
 
-/* S += w E_sun times the sun's share (fp_shafts_sun). */
+/* The sun's share along a view ray under --shadows screen: the runs from
+ * the walk's intervals (fp_ss_walk, kernels/light_core.h), C as for the
+ * map. */
+FP_FN fp_real fp_shafts_screen(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                               FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                               FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
+                               FP_GLOBAL const float *grid, FP_CONSTANT const float *view,
+                               FP_GLOBAL const float *depth, int width, int height,
+                               fp_real ox, fp_real oy, fp_real oz, fp_real dx,
+                               fp_real dy, fp_real dz, fp_real ta, fp_real tb, int layered,
+                               fp_real h0, fp_real od_total)
+{
+    fp_sun_acc_t acc, *a = &acc;
+    fp_sun_acc_init(a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta, layered, h0);
+    fp_runs_t runs, *r = &runs;
+    fp_runs_init(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta, 0);
+    /* Shadows reach only as far as the scene: beyond the deepest z it could
+     * hold plus THICK and DIST, every sun ray is past it (the walk needs a
+     * finite stretch). */
+    FP_CONSTANT const fp_real *m = lt + FP_LT_SS_M;
+    fp_real dzc = m[6] * dx + m[7] * dy + m[8] * dz;
+    fp_real czo = m[6] * (ox - view[0]) + m[7] * (oy - view[1]) + m[8] * (oz - view[2]);
+    fp_real reach = lt[FP_LT_SS_ZMAX] + lt[FP_LT_SS_THICK] + lt[FP_LT_SS_DIST];
+    fp_real tw = dzc > 0 ? fmin(tb, fmax((reach - czo) / dzc, ta)) : tb;
+    /* The ray's pixel: where a point of it projects (its center). */
+    FP_CONSTANT const fp_real *h = lt + FP_LT_SS_H;
+    fp_real c[3], nn[3], q1[3] = { ox + dx - view[0], oy + dy - view[1], oz + dz - view[2] };
+    for (int k = 0; k < 3; k++)
+        c[k] = m[3 * k] * q1[0] + m[3 * k + 1] * q1[1] + m[3 * k + 2] * q1[2];
+    fp_ss_ndc(h, c, view[FP_VIEW_ORTHO] != 0, 1, nn);
+    fp_real px = nn[0] / nn[2] / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
+    fp_real py = nn[1] / nn[2] / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] +
+                 (fp_real)0.5;
+    fp_real iv[2 * FP_SS_MAX_IV];
+    int n = isinf(tw) || !(c[2] > 0) ? 0
+            : fp_ss_walk(lt, view, depth, width, height, ox, oy, oz, dx, dy, dz, ta, tw, px, py,
+                         0, iv);
+    fp_real t = ta;
+    for (int k = 0; k < n; k++) {
+        fp_real s0 = fmax(iv[2 * k], ta), s1 = fmin(iv[2 * k + 1], tb);
+        if (!(s1 > s0))
+            continue;
+        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t, s0, 1);
+        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, s0, s1, 0);
+        t = s1;
+    }
+    fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t, tb, 1);
+    return fp_runs_finish(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, tb,
+                          od_total);
+}
+
+/* S += w E_sun times the sun's share: the shadow map's walk, or the
+ * depth buffer's (--shadows screen). */
 FP_FN void fp_shafts_add(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                          FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                          FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
-                         FP_GLOBAL const float *smap, FP_GLOBAL const float *grid, fp_real ox,
-                         fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real ta,
-                         fp_real tb, int layered, fp_real h0, fp_real od_total, fp_real w,
-                         fp_real *S)
+                         FP_GLOBAL const float *smap, FP_GLOBAL const float *grid,
+                         FP_CONSTANT const float *view, FP_GLOBAL const float *depth, int width,
+                         int height, fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
+                         fp_real dz, fp_real ta, fp_real tb, int layered, fp_real h0,
+                         fp_real od_total, fp_real w, fp_real *S)
 {
-    fp_real sun = fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx, dy, dz,
-                                ta, tb, layered, h0, od_total);
+    fp_real sun = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN
+                      ? fp_shafts_screen(fp, lvi, lvf, coef, occ, lt, grid, view, depth, width,
+                                         height, ox, oy, oz, dx, dy, dz, ta, tb, layered, h0,
+                                         od_total)
+                      : fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx,
+                                      dy, dz, ta, tb, layered, h0, od_total);
     for (int c = 0; c < 3; c++)
         S[c] += w * sun * lt[FP_LT_SUN_E + c];
 }

@@ -2301,6 +2301,81 @@ static void test_shafts_opencl(void **state)
     fp_cl_close(cl);
 }
 
+
+/* --shadows screen by the same walk over the depth buffer: against brute
+ * force with the point visibility of the same rule (fp_shadow_screen), on
+ * the thin-caster scene seen from before the wall (its face and its gaps
+ * are in the depth buffer; the sun ahead, above the wall). */
+typedef struct {
+    const double *lt;
+    const float *view, *depth;
+    int w, h;
+} screen_vis_t;
+
+static double screen_vis(void *ctx, const double p[3])
+{
+    const screen_vis_t *c = ctx;
+    return fp_shadow_screen(c->lt, c->view, c->depth, c->w, c->h, p[0], p[1], p[2]);
+}
+
+static void test_shafts_screen(void **state)
+{
+    (void)state;
+    caster_scene_t s;
+    caster_scene(&s, sh_gaps, FP_ARRAY_LEN(sh_gaps), 0.3, sh_pillars, sh_pillar_w1,
+                 FP_ARRAY_LEN(sh_pillars));
+    const int w = 160, h = 90;
+    fp_view_t v;
+    make_view_at(&v, w, h, "0,1.7,0", "0,2.5,40", "50");
+    float *depth = malloc((size_t)w * h * sizeof *depth);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double d[3], len1, o[3];
+            fp_view_ray(&v, x, y, 1, d, &len1);
+            fp_view_origin_at(&v, x, y, o);
+            double t = caster_hit(&s, o, d);
+            depth[y * w + x] = isfinite(t) ? (float)(t / len1) : INFINITY;
+        }
+    const char *extra[] = { "shadows", "screen", "screen-shadow", "32,25,1", "self-shadow",
+                            "exact", NULL };
+    rig_t r;
+    sh_rig(&r, extra, NULL, 0, 0);
+    assert_int_equal(fp_scatter_frame(&r.p, &r.sd, &r.fog, &v, depth, 1), FP_OK);
+    float view[FP_VIEW_FLOATS];
+    fp_view_pack(&v, view);
+    screen_vis_t sv = { r.sd.lt, view, depth, w, h };
+    double worst = 0, smax = 0, got[16], want[16], lit_frac = 0;
+    const int nr = 10;
+    for (int k = 0; k < nr; k++) {
+        /* rows about the horizon: the ground and fog in the wall's shadow */
+        int x = 8 + (k * 37) % (w - 16), y = h / 2 - 2 + (k * 3) % 8;
+        double d[3], len, o[3], S[3];
+        fp_view_ray(&v, x, y, depth[y * w + x], d, &len);
+        fp_view_origin_at(&v, x, y, o);
+        fp_scatter_ray_at(&r.sd, &r.fog, &v, view, depth, o, d, len, 0, S);
+        got[k] = S[0] * 4 * M_PI;
+        want[k] = fp_scatter_sun_brute(&r.sd, &r.fog, o, d, len, 20000, screen_vis, &sv);
+        /* the same ray without shadows: how much of it the walk darkened */
+        double all = fp_scatter_sun_brute(&r.sd, &r.fog, o, d, len, 2000, NULL, NULL);
+        lit_frac += want[k] / fmax(all, 1e-30) / nr;
+        smax = fmax(smax, want[k]);
+    }
+    for (int k = 0; k < nr; k++) {
+        double e = fabs(got[k] - want[k]) / fmax(want[k], 1e-2 * smax);
+        worst = fmax(worst, e);
+        if (!(e <= 2e-4))
+            fail_msg("--shadows screen, ray %d: %.9g, brute force %.9g: relative %.3g above 2e-4",
+                     k, got[k], want[k], e);
+    }
+    print_message("--shadows screen (the walk over a 160x90 depth buffer) vs brute force (20000 "
+                  "steps, the same rule per point): max relative error %.3g over %d rays "
+                  "(tolerance 2e-4); the rays keep %.0f%% of their unshadowed light\n", worst,
+                  nr, 100 * lit_frac);
+    assert_true(lit_frac < 0.95 && lit_frac > 0.05);
+    rig_close(&r);
+    free(depth);
+}
+
 int main(int argc, char **argv)
 {
     test_argv0 = argv[0];
@@ -2327,6 +2402,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_shafts_thin),
         cmocka_unit_test(test_shafts_converge),
         cmocka_unit_test(test_shafts_opencl),
+        cmocka_unit_test(test_shafts_screen),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     remove_scene();
