@@ -1065,6 +1065,34 @@ static void scene_close(scene_t *sc)
 
 /* ------------------------------------------------------------ 5. OpenCL parity */
 
+/* The OpenCL device with the integrate and scatter stages on it; skips
+ * the test where there is no device. */
+typedef struct cl_rig_t {
+    fp_cl_t *cl;
+    fp_integrate_cl_t icl;
+    fp_scatter_cl_t scl;
+} cl_rig_t;
+
+static void cl_rig_open(cl_rig_t *c)
+{
+    c->cl = NULL;
+    if (fp_cl_open(NULL, &c->cl) != FP_OK) {
+        print_message("no OpenCL device: skipped\n");
+        skip();
+    }
+    assert_int_equal(fp_integrate_cl_init(c->cl, &c->icl), FP_OK);
+    assert_int_equal(fp_scatter_cl_init(c->cl, &c->scl), FP_OK);
+}
+
+static void cl_rig_close(cl_rig_t *c)
+{
+    fp_scatter_cl_release(&c->scl);
+    fp_integrate_cl_release(&c->icl);
+    fp_cl_close(c->cl);
+}
+
+
+
 static void test_opencl_parity(void **state)
 {
     (void)state;
@@ -1086,18 +1114,11 @@ static void test_opencl_parity(void **state)
         "fogmap, sun + shadow map, point + spot, hg:0.6",
         "fogmap, screen-space shadows, self-shadow map, interleave 4x3",
         "the same in a haze without top (optical depth to the sun +inf)" };
-    fp_cl_t *cl = NULL;
     if (!sample_scene())
         skip();
-    if (fp_cl_open(NULL, &cl) != FP_OK) {
-        print_message("no OpenCL device: skipped\n");
-        skip();
-    }
-    print_message("OpenCL device: %s\n", fp_cl_device_label(cl));
-    fp_integrate_cl_t icl;
-    fp_scatter_cl_t scl;
-    assert_int_equal(fp_integrate_cl_init(cl, &icl), FP_OK);
-    assert_int_equal(fp_scatter_cl_init(cl, &scl), FP_OK);
+    cl_rig_t cr;
+    cl_rig_open(&cr);
+    print_message("OpenCL device: %s\n", fp_cl_device_label(cr.cl));
     for (int ci = 0; ci < 3; ci++) {
         const char *opts[48];
         int n = 0;
@@ -1111,7 +1132,7 @@ static void test_opencl_parity(void **state)
         size_t npx = (size_t)sc.w * sc.h;
         float *ref = malloc(npx * 4 * sizeof *ref), *got = malloc(npx * 4 * sizeof *got);
         assert_int_equal(fp_scatter_process(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, ref), FP_OK);
-        assert_int_equal(fp_scatter_process_cl(&scl, &icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth,
+        assert_int_equal(fp_scatter_process_cl(&cr.scl, &cr.icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth,
                                                got), FP_OK);
         double max_ds = 0, max_dtau = 0, max_rel = 0, smax = 0;
         long failures = 0, nans = 0;
@@ -1147,7 +1168,7 @@ static void test_opencl_parity(void **state)
         assert_int_equal(fp_scatter_pixels(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, pix, m, lst),
                          FP_OK);
         double c_list = test_list_diff(ref, pix, m, lst);
-        assert_int_equal(fp_scatter_pixels_cl(&scl, &icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth, pix,
+        assert_int_equal(fp_scatter_pixels_cl(&cr.scl, &cr.icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth, pix,
                                               m, lst), FP_OK);
         double cl_list = test_list_diff(got, pix, m, lst);
         print_message("pixel list of %zu vs the whole frame: C %.3g, OpenCL %.3g (bounds 0, "
@@ -1162,12 +1183,12 @@ static void test_opencl_parity(void **state)
             float *again = malloc(bytes), *forced = malloc(bytes);
             sc.r.fog.fp[FP_F_SIGMA] *= 2;
             for (int dev = 0; dev < 2; dev++) {
-                fp_grid_key_t *key = dev ? &scl.grid_key : &sc.r.sd.grid_key;
+                fp_grid_key_t *key = dev ? &cr.scl.grid_key : &sc.r.sd.grid_key;
                 for (int k = 0; k < 2; k++) {
                     if (k)
                         key->valid = 0;
                     float *out = k ? forced : again;
-                    assert_int_equal(dev ? fp_scatter_pixels_cl(&scl, &icl, &sc.r.sd, &sc.r.fog,
+                    assert_int_equal(dev ? fp_scatter_pixels_cl(&cr.scl, &cr.icl, &sc.r.sd, &sc.r.fog,
                                                                 &sc.v, sc.depth, pix, m, out)
                                          : fp_scatter_pixels(&sc.r.sd, &sc.r.fog, &sc.v,
                                                              sc.depth, pix, m, out), FP_OK);
@@ -1190,9 +1211,7 @@ static void test_opencl_parity(void **state)
         free(got);
         scene_close(&sc);
     }
-    fp_scatter_cl_release(&scl);
-    fp_integrate_cl_release(&icl);
-    fp_cl_close(cl);
+    cl_rig_close(&cr);
 }
 
 /* ------------------------------------------------------------ 5b. fast local lights */
@@ -1351,17 +1370,10 @@ static void test_light_fast_opencl(void **state)
         "density", "0.05", "height", "0,8", "fog-color", "0.004,0.006,0.012", "phase", "hg:0.8",
         "light", "point:-4,3.5,6:1.0,0.55,0.2:30", "light", "point:3,3.5,14:1.0,0.55,0.2:30",
         "light", "spot:0,7,26:0.75,0.85,1.0:200:0,-1,-0.15:15,30", NULL };
-    fp_cl_t *cl = NULL;
     if (!sample_scene())
         skip();
-    if (fp_cl_open(NULL, &cl) != FP_OK) {
-        print_message("no OpenCL device: skipped\n");
-        skip();
-    }
-    fp_integrate_cl_t icl;
-    fp_scatter_cl_t scl;
-    assert_int_equal(fp_integrate_cl_init(cl, &icl), FP_OK);
-    assert_int_equal(fp_scatter_cl_init(cl, &scl), FP_OK);
+    cl_rig_t cr;
+    cl_rig_open(&cr);
     scene_t sc;
     assert_int_equal(scene_open(&sc, opts, 0), 0);
     size_t npx = (size_t)sc.w * sc.h;
@@ -1371,7 +1383,7 @@ static void test_light_fast_opencl(void **state)
     for (int ortho = 1; ortho >= 0; ortho--) {
         sc.v.ortho = ortho;
         assert_int_equal(fp_scatter_process(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, ref), FP_OK);
-        assert_int_equal(fp_scatter_process_cl(&scl, &icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth,
+        assert_int_equal(fp_scatter_process_cl(&cr.scl, &cr.icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth,
                                                got), FP_OK);
         double max_ds = 0, max_rel = 0, smax = 0;
         long failures = 0;
@@ -1395,7 +1407,7 @@ static void test_light_fast_opencl(void **state)
     int *pix = malloc((npx / 3 + 1) * sizeof *pix);
     float *lst = malloc((npx / 3 + 1) * 4 * sizeof *lst);
     size_t m = test_pixel_list(npx, pix);
-    assert_int_equal(fp_scatter_pixels_cl(&scl, &icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth, pix, m,
+    assert_int_equal(fp_scatter_pixels_cl(&cr.scl, &cr.icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth, pix, m,
                                           lst), FP_OK);
     double cl_list = test_list_diff(got, pix, m, lst);
     print_message("fast local lights, pixel list of %zu vs the whole frame (OpenCL): %.3g (bound "
@@ -1406,9 +1418,7 @@ static void test_light_fast_opencl(void **state)
     free(ref);
     free(got);
     scene_close(&sc);
-    fp_scatter_cl_release(&scl);
-    fp_integrate_cl_release(&icl);
-    fp_cl_close(cl);
+    cl_rig_close(&cr);
 }
 
 /* ------------------------------------------------------------ 6. shadows */
@@ -2225,37 +2235,40 @@ static void test_shafts_converge(void **state)
 }
 
 
+/* A w x h view from (0, 1.7, 0) toward the wall and its planar depth
+ * traced in the scene (malloc'd). */
+static float *caster_view(const caster_scene_t *s, int w, int h, fp_view_t *v)
+{
+    make_view_at(v, w, h, "0,1.7,0", "0,2.5,40", "50");
+    float *depth = malloc((size_t)w * h * sizeof *depth);
+    assert_non_null(depth);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double d[3], len1, o[3];
+            fp_view_ray(v, x, y, 1, d, &len1);
+            fp_view_origin_at(v, x, y, o);
+            double t = caster_hit(s, o, d);
+            depth[y * w + x] = isfinite(t) ? (float)(t / len1) : INFINITY;
+        }
+    return depth;
+}
+
 /* OpenCL against the C reference on the thin-caster scene: a 96x48 view
  * toward the wall, its depth traced; height fog and a fogmap, filtered
  * and hard, self-shadowing on. */
 static void test_shafts_opencl(void **state)
 {
     (void)state;
-    fp_cl_t *cl = NULL;
-    if (fp_cl_open(NULL, &cl) != FP_OK) {
-        print_message("no OpenCL device: skipped\n");
-        skip();
-    }
-    fp_integrate_cl_t icl;
-    fp_scatter_cl_t scl;
-    assert_int_equal(fp_integrate_cl_init(cl, &icl), FP_OK);
-    assert_int_equal(fp_scatter_cl_init(cl, &scl), FP_OK);
+    cl_rig_t cr;
+    cl_rig_open(&cr);
     caster_scene_t s;
     caster_scene(&s, sh_gaps, FP_ARRAY_LEN(sh_gaps), 0.05, sh_pillars, sh_pillar_w1,
                  FP_ARRAY_LEN(sh_pillars));
     const int w = 96, h = 48;
     fp_view_t v;
-    make_view_at(&v, w, h, "0,1.7,0", "0,2.5,40", "50");
-    float *depth = malloc((size_t)w * h * sizeof *depth);
-    float *ref = malloc((size_t)w * h * 4 * sizeof *ref), *got = malloc((size_t)w * h * 4 * sizeof *got);
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            double d[3], len1, o[3];
-            fp_view_ray(&v, x, y, 1, d, &len1);
-            fp_view_origin_at(&v, x, y, o);
-            double t = caster_hit(&s, o, d);
-            depth[y * w + x] = isfinite(t) ? (float)(t / len1) : INFINITY;
-        }
+    float *depth = caster_view(&s, w, h, &v);
+    float *ref = malloc((size_t)w * h * 4 * sizeof *ref);
+    float *got = malloc((size_t)w * h * 4 * sizeof *got);
     static float fmap[24 * 24];
     for (int i = 0; i < 24 * 24; i++)
         fmap[i] = (float)(0.3 + 1.7 * urand());
@@ -2275,7 +2288,7 @@ static void test_shafts_opencl(void **state)
         if (ci == 2)
             assert_int_equal(fp_fogmap_frame(&r.p, NULL, &r.fm, 1, &v, &r.fog), FP_OK);
         assert_int_equal(fp_scatter_process(&r.sd, &r.fog, &v, depth, ref), FP_OK);
-        assert_int_equal(fp_scatter_process_cl(&scl, &icl, &r.sd, &r.fog, &v, depth, got), FP_OK);
+        assert_int_equal(fp_scatter_process_cl(&cr.scl, &cr.icl, &r.sd, &r.fog, &v, depth, got), FP_OK);
         double max_rel = 0, smax = 0;
         long failures = 0;
         for (int i = 0; i < w * h; i++)
@@ -2296,9 +2309,7 @@ static void test_shafts_opencl(void **state)
     free(depth);
     free(ref);
     free(got);
-    fp_scatter_cl_release(&scl);
-    fp_integrate_cl_release(&icl);
-    fp_cl_close(cl);
+    cl_rig_close(&cr);
 }
 
 
@@ -2326,16 +2337,7 @@ static void test_shafts_screen(void **state)
                  FP_ARRAY_LEN(sh_pillars));
     const int w = 160, h = 90;
     fp_view_t v;
-    make_view_at(&v, w, h, "0,1.7,0", "0,2.5,40", "50");
-    float *depth = malloc((size_t)w * h * sizeof *depth);
-    for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            double d[3], len1, o[3];
-            fp_view_ray(&v, x, y, 1, d, &len1);
-            fp_view_origin_at(&v, x, y, o);
-            double t = caster_hit(&s, o, d);
-            depth[y * w + x] = isfinite(t) ? (float)(t / len1) : INFINITY;
-        }
+    float *depth = caster_view(&s, w, h, &v);
     const char *extra[] = { "shadows", "screen", "screen-shadow", "32,25,1", "self-shadow",
                             "exact", NULL };
     rig_t r;
