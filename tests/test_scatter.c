@@ -1132,8 +1132,9 @@ static void test_opencl_parity(void **state)
         size_t npx = (size_t)sc.w * sc.h;
         float *ref = malloc(npx * 4 * sizeof *ref), *got = malloc(npx * 4 * sizeof *got);
         assert_int_equal(fp_scatter_process(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, ref), FP_OK);
-        assert_int_equal(fp_scatter_process_cl(&cr.scl, &cr.icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth,
-                                               got), FP_OK);
+        assert_int_equal(
+            fp_scatter_process_cl(&cr.scl, &cr.icl, &sc.r.sd, &sc.r.fog, &sc.v, sc.depth, got),
+            FP_OK);
         double max_ds = 0, max_dtau = 0, max_rel = 0, smax = 0;
         long failures = 0, nans = 0;
         for (size_t i = 0; i < npx; i++)
