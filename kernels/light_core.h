@@ -43,7 +43,7 @@
 #define FP_LT_GRID 64        /* 3: self-shadow grid origin (fog space) */
 #define FP_LT_GRID_CELL 67   /* 3: cell size */
 #define FP_LT_GRID_N 70      /* 3: nodes along x, y, z */
-#define FP_LT_OD_STOP 73 /* the view ray's in-scatter ends where its optical depth exceeds this */
+#define FP_LT_OD_STOP 73     /* the view ray's in-scatter ends where its optical depth exceeds this */
 #define FP_LT_SEG_OD 74     /* largest optical depth of one segment of the view ray */
 #define FP_LT_SEG_JUMP 75   /* largest change of the light over one segment, weighted */
 #define FP_LT_INTERLEAVE 76 /* 2: n x m pattern of per-pixel sample offsets (1, 1: off) */

@@ -447,9 +447,8 @@ FP_LFN void fp_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_rea
     int any = tb > ta;
     ta = any ? ta : (fp_real)0;
     tb = any ? tb : (fp_real)0;
-    fp_real acc =
-        fp_light_fast(fp, lt, row, fp_light_sig_c(fp, row, ox, oy, oz, dx, dy, dz, ta, tb), ox, oy,
-                      oz, dx, dy, dz, ta, tb);
+    fp_real acc = fp_light_fast(fp, lt, row, fp_light_sig_c(fp, row, ox, oy, oz, dx, dy, dz, ta, tb),
+                                ox, oy, oz, dx, dy, dz, ta, tb);
     acc = any ? acc : (fp_real)0;
     for (int c = 0; c < 3; c++)
         S[c] = acc * row[FP_LL_I + c];
