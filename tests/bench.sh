@@ -36,7 +36,7 @@ trap 'rm -rf "$tmp"' EXIT
   }
   mkdir -p "$tmp/tests"
   run_test test_phase | grep -E '^(normalization|pdf vs phase|mean cosine|sampled mu)' | sed 's/^/- phase functions, /'
-  run_test test_scatter | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C)' |
+  run_test test_scatter | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C|shafts vs brute force|thin casters|--shadows screen)' |
     sed 's/^/- /'
   if [ -x "$FP_BUILDDIR/tests/test_reference" ]; then
     run_test test_reference |
