@@ -204,6 +204,8 @@ fails "missing shadow map" 1 "nowhere\.0001\.exr.*frame 1" "$T/o11.exr" "$FOGPIP
 "$OIIOTOOL" --pattern constant:color=5 64x64 1 --chnames Z -d float -o "$T/nomat.0001.exr"
 fails "shadow map without its matrices" 1 "nomat\.0001\.exr.*frame 1.*worldToCamera" "$T/o12.exr" \
   "$FOGPIPE" --sun 0,1,1 --shadow-map "$T/nomat.####.exr" -i "$S/scene.0001.exr" -o "$T/o12.exr"
+fails "perspective shadow map" 1 "scene\.0001\.exr.*frame 1.*perspective.*orthographic" "$T/o13.exr" \
+  "$FOGPIPE" --sun 0,1,1 --shadow-map "$S/scene.####.exr" -i "$S/scene.0001.exr" -o "$T/o13.exr"
 fails "bad --light" 2 "light.*expected point" - "$FOGPIPE" --light lamp:1,2,3
 
 # make install with DESTDIR: the installed binary runs from anywhere.
