@@ -25,9 +25,10 @@
  *   C(t) = e^-s0 (1 - e^{-(1 + r) u}) / (1 + r),
  * exact with fog self-shadowing included.  Otherwise (a fogmap, a box with
  * sides) C is carried along the ray: each step's optical depth exact, the
- * sun's transmittance taken linear in u within it, steps halved where it
- * changes (--scatter-steps: the longest step); exact without
- * self-shadowing.
+ * sun's optical depth taken linear in u within it (so the sun's
+ * transmittance exponential: exact where it is affine), steps halved where
+ * the transmittance changes (--scatter-steps: the longest step); exact
+ * without self-shadowing.
  *
  * Filtering (--shadow-filter R): the visibility ramps linearly over R
  * texels' worth of the ray around each end of a run, never more than half
@@ -76,7 +77,7 @@ FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
         return fp_sun_layered_C(a->e0, a->k,
                                 fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, t, 0));
     int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
-    fp_real xmax = lt[FP_LT_SEG_OD], jmax = lt[FP_LT_SEG_JUMP];
+    fp_real xmax = lt[FP_LT_SEG_OD], jmax = (fp_real)0.02 * lt[FP_LT_SEG_JUMP];
     for (int guard = 0; a->t < t && guard < 4096; guard++) {
         fp_real h = fmin(a->h, t - a->t);
         fp_real t1 = h >= t - a->t ? t : a->t + h;
@@ -95,8 +96,17 @@ FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
             a->h = (fp_real)0.5 * h;
             continue;
         }
-        fp_real c1 = x > 0 ? fp_expm1_ratio(x) - exp(-x) : (fp_real)0;
-        a->C += ea * (a->T * c0 + (T1 - a->T) * c1);
+        /* The sun's optical depth taken linear in the camera's within the
+         * step (exact in fog of height alone, where it is affine): T e^{-v}
+         * decays as e^{-k v}, k = 1 + its slope. */
+        fp_real tiny = (fp_real)1e-30;
+        if (a->T > tiny && T1 > tiny && x > 0) {
+            fp_real k = 1 + (log(a->T) - log(T1)) / x;
+            a->C += ea * a->T * fp_sun_layered_C(1, k, x);
+        } else {
+            fp_real c1 = x > 0 ? fp_expm1_ratio(x) - exp(-x) : (fp_real)0;
+            a->C += ea * (a->T * c0 + (T1 - a->T) * c1);
+        }
         a->u += x;
         a->T = T1;
         a->t = t1;
