@@ -231,9 +231,8 @@ int main(int argc, char **argv)
         f.n = (size_t)f.view.width * f.view.height;
         float *out = malloc(f.n * 4 * sizeof *out);
         static const struct { const char *self, *grid; } modes[] = {
-            { "off", NULL }, { "exact", NULL }, { "auto", NULL }, { "auto", "64,64,8" },
-            { "auto", "64,64,16" }, { "auto", "64,64,32" }, { "auto", "96,96,24" },
-            { "auto", "128,128,24" },
+            { "off", NULL }, { "exact", NULL }, { "auto", NULL }, { "auto", "128,128,32" },
+            { "auto", "256,256,64" },
         };
         double off = NAN;
         look_t exact;
@@ -255,14 +254,19 @@ int main(int argc, char **argv)
                 et = grid_error(&f, &l, 20000, &outside, per);
             if (have_exact && k > 0)
                 es = layer_error(&f, &exact, out, f.n > 4000 ? f.n / 4000 : 1);
-            char g[64];
-            snprintf(g, sizeof g, "%s", !map ? "-" : modes[k].grid ? modes[k].grid
-                                                                  : "64,64,48 (default)");
+            char g[96];
+            if (!map)
+                snprintf(g, sizeof g, "-");
+            else if (modes[k].grid)
+                snprintf(g, sizeof g, "%s", modes[k].grid);
+            else
+                snprintf(g, sizeof g, "0,0,32 (default: %g,%g,%g)", l.light.lt[FP_LT_GRID_N],
+                         l.light.lt[FP_LT_GRID_N + 1], l.light.lt[FP_LT_GRID_N + 2]);
             printf("| %dx%d | %s | %s | %.1f | %.2f | %.1e | %.2f%% | %.1e |\n", f.view.width,
                    f.view.height, modes[k].self, g, s * 1e3, (s - off) / f.n * 1e6, et,
                    100 * outside, es);
             if (map) {
-                printf("|   | per cascade, finest first: |");
+                printf("| | per cascade, finest first: |");
                 for (int c = 0; c < (int)l.light.lt[FP_LT_GRID_K]; c++) {
                     const double *box = l.light.lt + FP_LT_CASCADE + 6 * c;
                     printf(" %.2g (cells %.2g x %.2g x %.2g);", per[c], box[3], box[4], box[5]);
