@@ -429,8 +429,8 @@ static const float no_map[1] = { INFINITY };
  * grid's frame.  The coarsest cascade holds all of it; cascade c < K - 1
  * the part within R_c = N (F / N)^((c + 1) / K) of the camera (the
  * pixels' footprint grows with the distance), F the farthest tb and N the
- * nearest ta, at least F / 64; each slightly enlarged.  A point that no cascade holds (between the sampled
- * rays) is integrated exactly. */
+ * nearest ta, at least F / 64; each slightly enlarged.  A point that no
+ * cascade holds (between the sampled rays) is integrated exactly. */
 static int grid_bounds(fp_scatter_data_t *d, const fp_integrate_data_t *fog, const fp_view_t *v,
                        const float *depth)
 {
@@ -491,7 +491,8 @@ static int grid_bounds(fp_scatter_data_t *d, const fp_integrate_data_t *fog, con
     for (int c = K - 1; c >= 0; c--) {
         double n0 = fmax(near, far / 64);
         double reach = c + 1 == K ? INFINITY : n0 * pow(far / n0, (c + 1.0) / K);
-        double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+        double lo[3] = { INFINITY, INFINITY, INFINITY };
+        double hi[3] = { -INFINITY, -INFINITY, -INFINITY };
         for (size_t k = 0; k < m; k++) {
             const double *r = ray + 8 * k;
             if (!(r[6] < reach))

@@ -40,7 +40,7 @@
 #define FP_LT_SS_THICK 45    /* assumed thickness of what the depth buffer shows */
 #define FP_LT_SS_M 46        /* 9: fog vector -> camera vector (inverse of view m) */
 #define FP_LT_SS_H 55        /* 9: camera (x/z, y/z, 1) -> NDC, homogeneous */
-#define FP_LT_SUN_E1 64      /* 3: unit, horizontal, across the sun: the self-shadow grid's a axis */
+#define FP_LT_SUN_E1 64      /* 3: unit, horizontal, across the sun: the self-shadow grid's a */
 #define FP_LT_SUN_E2 67      /* 3: unit, horizontal, toward the sun: its b axis (at y = 0) */
 #define FP_LT_GRID_N 70      /* 3: nodes of each cascade of the grid along a, b and y */
 #define FP_LT_OD_STOP 73     /* the view ray's in-scatter ends where its optical depth exceeds this */
@@ -328,8 +328,9 @@ FP_FN fp_real fp_sun_od_grid(FP_CONSTANT const fp_real *lt, FP_GLOBAL const floa
     fp_real g[3];
     if (!fp_sun_od_cell(lt, x, y, z, &c, g))
         return -1;
-    int i = (int)fmin(floor(g[0]), (fp_real)(na - 2)), j = (int)fmin(floor(g[1]), (fp_real)(nb - 2)),
-        k = (int)fmin(floor(g[2]), (fp_real)(ns - 2));
+    int i = (int)fmin(floor(g[0]), (fp_real)(na - 2));
+    int j = (int)fmin(floor(g[1]), (fp_real)(nb - 2));
+    int k = (int)fmin(floor(g[2]), (fp_real)(ns - 2));
     fp_real ax = g[0] - i, ay = g[1] - j, az = g[2] - k, od = 0;
     int at = fp_sun_od_index(lt, c, i, j, k);
     for (int q = 0; q < 8; q++) {

@@ -851,7 +851,8 @@ static double grid_view_error(const rig_t *r, const fp_view_t *v, const float *d
             out++;
             continue;
         }
-        double oe = fp_fog_od(r->fog.fp, TABLES(t), p[0], p[1], p[2], l[0], l[1], l[2], INFINITY, 0);
+        double oe =
+            fp_fog_od(r->fog.fp, TABLES(t), p[0], p[1], p[2], l[0], l[1], l[2], INFINITY, 0);
         if (isinf(oe) && isinf(og))
             continue;
         worst = fmax(worst, fabs(expm1(oe - og)));
