@@ -181,14 +181,22 @@ const fp_option_t fp_scatter_options[] = {
       "--shadows screen: STEPS is no longer used (the walk over the depth buffer is exact; "
       "kept so that command lines run), how far toward the sun (scene units), and the "
       "thickness assumed behind what the depth buffer shows", NULL, 0 },
-    { "self-shadow", 0, FP_OPT_ENUM, LI(self_shadow), 0, 0, "exact", 0, 0, "off|exact|map",
-      "off|exact|map",
+    { "self-shadow", 0, FP_OPT_ENUM, LI(self_shadow), 0, 0, "auto", 0, 0, "off|exact|map|auto",
+      "off|exact|map|auto",
       "fog shadowing itself: sunlight reaching a point is attenuated by the fog between it "
-      "and the sun, integrated exactly per point, or looked up in a per-frame grid of exact "
-      "values (map; faster with a fogmap)", NULL, 0 },
-    { "self-shadow-grid", 0, FP_OPT_VEC, LI(self_shadow_grid), 3, 3, "96,48,96", 2, 1024, NULL,
-      "NX,NY,NZ", "nodes of the self-shadow grid (--self-shadow map) over the visible fog",
-      NULL, 0 },
+      "and the sun, integrated exactly per point, or looked up in a per-frame grid aligned "
+      "with the sun of exact values at its nodes (map; --self-shadow-grid); without a "
+      "fogmap both are the exact closed form; auto: map", NULL, 0 },
+    { "self-shadow-grid", 0, FP_OPT_VEC, LI(self_shadow_grid), 3, 3, "0,0,32", 0, 1024, NULL,
+      "NA,NB,NY", "nodes of each cascade of the self-shadow grid (--self-shadow map): across "
+      "the sun (NA x NB) and along its rays by height (NY), each at least 2; NA, NB 0: half "
+      "the square root of the frame's pixel count (64 to 256), so that filling the grid costs "
+      "about the same per pixel at every resolution", NULL, 0 },
+    { "self-shadow-cascades", 0, FP_OPT_INT, LI(self_shadow_cascades), 0, 0, "3", 1,
+      FP_LT_MAX_CASCADES, NULL, "K",
+      "cascades of the self-shadow grid, nested around the camera: K distances in geometric "
+      "progression from the nearest fog (at least 1/64 of the farthest) to the farthest, "
+      "the view rays' fog within each a cascade of its own", NULL, 0 },
     { "scatter-steps", 0, FP_OPT_INT, LI(scatter_steps), 0, 0, "64", 1, FP_SCATTER_MAX_STEPS / 2,
       NULL, "N",
       "segments along each view ray for the sun's in-scattering without a shadow map (each "
@@ -255,7 +263,7 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
                         : shadows == FP_SHADOWS_WITH_MAP ? FP_SHADOWS_MAP
                         : shadows == FP_SHADOWS_WITH_SCREEN ? FP_SHADOWS_SCREEN : FP_SHADOWS_NONE;
     lt[FP_LT_SELF] = l->self_shadow == FP_SELF_SHADOW_OFF ? FP_SELF_OFF
-                     : l->self_shadow == FP_SELF_SHADOW_MAP ? FP_SELF_MAP : FP_SELF_EXACT;
+                     : l->self_shadow == FP_SELF_SHADOW_EXACT ? FP_SELF_EXACT : FP_SELF_MAP;
     lt[FP_LT_STEPS] = l->scatter_steps;
     lt[FP_LT_PANELS] = l->light_panels;
     /* The fast rule cuts a spot's range at its cone, one interval when the
@@ -273,6 +281,32 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
     lt[FP_LT_SS_THICK] = l->screen_shadow[2];
     for (int i = 0; i < 3; i++)
         lt[FP_LT_GRID_N + i] = floor(l->self_shadow_grid[i]);
+    lt[FP_LT_GRID_K] = l->self_shadow_cascades;
+    {
+        const double *g = l->self_shadow_grid;
+        int autosize = floor(g[0]) == 0 && floor(g[1]) == 0;
+        if (!(g[2] >= 2) || (!autosize && !(g[0] >= 2 && g[1] >= 2)))
+            return fp_usage_error("--self-shadow-grid: expected NA,NB,NY of at least 2 each "
+                                  "(or NA, NB 0: sized by the frame)");
+        double na = autosize ? 256 : floor(g[0]), nb = autosize ? 256 : floor(g[1]);
+        if (lt[FP_LT_GRID_K] * na * nb * floor(g[2]) > (double)(1 << 26))
+            return fp_usage_error("--self-shadow-grid: %g x %g x %g nodes times %d cascades: at "
+                                  "most 2^26 nodes in all", na, nb, floor(g[2]),
+                                  l->self_shadow_cascades);
+    }
+    if (sun) {
+        /* The self-shadow grid's frame: e1 horizontal across the sun (x when
+         * the sun is overhead), e2 horizontal toward it. */
+        const double *sl = lt + FP_LT_SUN_DIR;
+        double *e1 = lt + FP_LT_SUN_E1, *e2 = lt + FP_LT_SUN_E2;
+        double hn = sqrt(sl[0] * sl[0] + sl[2] * sl[2]);
+        e1[0] = hn > 1e-9 ? -sl[2] / hn : 1;
+        e1[1] = 0;
+        e1[2] = hn > 1e-9 ? sl[0] / hn : 0;
+        e2[0] = -e1[2];
+        e2[1] = 0;
+        e2[2] = e1[0];
+    }
     /* Beyond an optical depth of 30 (transmittance 1e-13) nothing shows. */
     lt[FP_LT_OD_STOP] = 30;
     lt[FP_LT_SEG_OD] = 0.25;
@@ -415,18 +449,28 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
 
 static const float no_map[1] = { INFINITY };
 
+#define FP_GRID_MIN_SUN_Y 0.05
+
 #define TABLES(t) FP_TABLES(fp_fog_tables_or_empty(t))
 
-/* The self-shadow grid's box: the camera and the stretch of every 8th
- * pixel's ray (each way) that holds fog, slightly enlarged. */
-static void grid_bounds(fp_scatter_data_t *d, const fp_integrate_data_t *fog, const fp_view_t *v,
-                        const float *depth)
+/* The self-shadow grid's cascades (kernels/light_core.h): the stretch of
+ * every 8th pixel's ray (each way) that holds fog, from ta to tb, in the
+ * grid's frame.  The coarsest cascade holds all of it; cascade c < K - 1
+ * the part within R_c = N (F / N)^((c + 1) / K) of the camera (the
+ * pixels' footprint grows with the distance), F the farthest tb and N the
+ * nearest ta, at least F / 64; each slightly enlarged.  A point that no
+ * cascade holds (between the sampled rays) is integrated exactly. */
+static int grid_bounds(fp_scatter_data_t *d, const fp_integrate_data_t *fog, const fp_view_t *v,
+                       const float *depth)
 {
-    double lo[3], hi[3];
-    for (int i = 0; i < 3; i++)
-        lo[i] = hi[i] = v->origin[i];
-    for (int y = 0; y < v->height; y += 8)
-        for (int x = 0; x < v->width; x += 8) {
+    const int st = 8;
+    size_t nr = (size_t)((v->width + st - 1) / st) * (size_t)((v->height + st - 1) / st), m = 0;
+    double *ray = malloc(nr * 8 * sizeof *ray);
+    if (!ray)
+        return fp_error("self-shadow grid: out of memory");
+    double far = 0, near = INFINITY;
+    for (int y = 0; y < v->height; y += st)
+        for (int x = 0; x < v->width; x += st) {
             double dir[3], len, ta, tb, o[3];
             fp_view_ray(v, x, y, depth[(size_t)y * v->width + x], dir, &len);
             fp_view_origin_at(v, x, y, o);
@@ -434,32 +478,99 @@ static void grid_bounds(fp_scatter_data_t *d, const fp_integrate_data_t *fog, co
                              dir[2], len, &ta, &tb))
                 continue;
             if (isinf(tb)) {
-                /* Unbounded: as far as the integrator goes (its optical
-                 * depth stop), found by doubling. */
-                double od0 = fp_fog_od(fog->fp, TABLES(fog->tables), o[0], o[1],
-                                       o[2], dir[0], dir[1], dir[2], ta, 0);
-                double step = 1;
-                for (int k = 0; k < 40 && step < fog->fp[FP_F_CAP]; k++, step *= 2)
-                    if (fp_fog_od(fog->fp, TABLES(fog->tables), o[0], o[1],
-                                  o[2], dir[0], dir[1], dir[2], ta + step, 0) - od0 >=
-                        d->lt[FP_LT_OD_STOP])
+                /* Unbounded: as far as the integrator goes (fp_scatter_ray_core:
+                 * until the optical depth from ta passes its stop, or
+                 * nearly all of it is behind), found by doubling. */
+                const double *fp = fog->fp;
+                double od0 = fp_fog_od(fp, TABLES(fog->tables), o[0], o[1], o[2], dir[0],
+                                       dir[1], dir[2], ta, 0);
+                double odt = fp_fog_od(fp, TABLES(fog->tables), o[0], o[1], o[2], dir[0],
+                                       dir[1], dir[2], len, 0);
+                double step = fmax(1 / fmax(fp[FP_F_SIGMA] + fp[FP_F_HAZE], 1e-12), 1e-3);
+                for (int k = 0; k < 80 && step < fp[FP_F_CAP]; k++, step *= 2) {
+                    double od = fp_fog_od(fp, TABLES(fog->tables), o[0], o[1], o[2], dir[0],
+                                          dir[1], dir[2], ta + step, 0);
+                    if (od - od0 >= d->lt[FP_LT_OD_STOP] ||
+                        (isfinite(odt) && odt - od <= 1e-4 * odt))
                         break;
-                tb = ta + fmin(step, fog->fp[FP_F_CAP]);
-            }
-            for (int e = 0; e < 2; e++)
-                for (int i = 0; i < 3; i++) {
-                    double q = o[i] + (e ? tb : ta) * dir[i];
-                    lo[i] = fmin(lo[i], q);
-                    hi[i] = fmax(hi[i], q);
                 }
+                tb = ta + fmin(step, fp[FP_F_CAP]);
+            }
+            double *r = ray + 8 * m++;
+            for (int i = 0; i < 3; i++) {
+                r[i] = o[i];
+                r[3 + i] = dir[i];
+            }
+            r[6] = ta;
+            r[7] = tb;
+            far = fmax(far, tb);
+            near = fmin(near, ta);
         }
     double *lt = d->lt;
-    for (int i = 0; i < 3; i++) {
-        double pad = 0.01 * (hi[i] - lo[i]) + 1e-6;
-        int n = (int)lt[FP_LT_GRID_N + i];
-        lt[FP_LT_GRID + i] = lo[i] - pad;
-        lt[FP_LT_GRID_CELL + i] = (hi[i] - lo[i] + 2 * pad) / (n - 1);
+    int K = (int)lt[FP_LT_GRID_K];
+    const double *l = lt + FP_LT_SUN_DIR, *e1 = lt + FP_LT_SUN_E1, *e2 = lt + FP_LT_SUN_E2;
+    double shear = (l[0] * e2[0] + l[2] * e2[2]) / l[1];
+    /* The fog's top in fog space (a plane of nodes goes there), else its
+     * base Y0 (where the height profile bends); the weight of the nodes
+     * (fp_sun_od_weight) from the main fog's height profile. */
+    double top = fmin(fog->fp[FP_F_TOP], fog->fp[FP_F_BOX + 4]) + fog->fp[FP_F_OFF + 1];
+    double base = fog->fp[FP_F_Y0] + fog->fp[FP_F_OFF + 1];
+    lt[FP_LT_GRID_W] = base;
+    lt[FP_LT_GRID_W + 1] = isfinite(fog->fp[FP_F_H]) && fog->fp[FP_F_H] > 0 ? fog->fp[FP_F_H] : 0;
+    for (int c = K - 1; c >= 0; c--) {
+        double n0 = fmax(near, far / 64);
+        double reach = c + 1 == K ? INFINITY : n0 * pow(far / n0, (c + 1.0) / K);
+        double lo[3] = { INFINITY, INFINITY, INFINITY };
+        double hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+        for (size_t k = 0; k < m; k++) {
+            const double *r = ray + 8 * k;
+            if (!(r[6] < reach))
+                continue;
+            for (int e = 0; e < 2; e++) {
+                double t = e ? fmin(r[7], reach) : r[6], p[3], q[3];
+                for (int i = 0; i < 3; i++)
+                    p[i] = r[i] + t * r[3 + i];
+                q[0] = p[0] * e1[0] + p[2] * e1[2];
+                q[1] = p[0] * e2[0] + p[2] * e2[2] - p[1] * shear;
+                q[2] = p[1];
+                for (int i = 0; i < 3; i++) {
+                    lo[i] = fmin(lo[i], q[i]);
+                    hi[i] = fmax(hi[i], q[i]);
+                }
+            }
+        }
+        double *box = lt + FP_LT_CASCADE + 6 * c;
+        if (!(lo[0] <= hi[0])) {
+            /* No fog this near: the next cascade's box again (or, when
+             * no ray holds fog, a unit box at the camera). */
+            for (int i = 0; i < 6; i++)
+                box[i] = c + 1 < K ? box[6 + i] : i < 3 ? 0 : 1;
+            if (c + 1 == K) {
+                const double *o = v->origin;
+                box[0] = o[0] * e1[0] + o[2] * e1[2];
+                box[1] = o[0] * e2[0] + o[2] * e2[2] - o[1] * shear;
+                box[2] = o[1];
+            }
+            continue;
+        }
+        for (int i = 0; i < 3; i++) {
+            double pad = 0.02 * (hi[i] - lo[i]) + 1e-6;
+            int n = (int)lt[FP_LT_GRID_N + i];
+            box[i] = lo[i] - pad;
+            box[3 + i] = (hi[i] - lo[i] + 2 * pad) / (n - 1);
+            /* The extinction jumps at the fog's top (and bends at Y0):
+             * within the heights, the nodes are shifted down (one more
+             * cell in all) so that a plane of them lies on it. */
+            double plane = top > box[2] && top < hi[2] + pad ? top : base;
+            if (i == 2 && n > 2 && plane > box[2] && plane < hi[2] + pad) {
+                double h = (hi[2] - lo[2] + 2 * pad) / (n - 2);
+                box[5] = h;
+                box[2] = plane - ceil((plane - box[2]) / h) * h;
+            }
+        }
     }
+    free(ray);
+    return FP_OK;
 }
 
 int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integrate_data_t *fog,
@@ -495,8 +606,22 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
      * form: faster than any grid. */
     if ((int)lt[FP_LT_SELF] == FP_SELF_MAP && fog->fp[FP_F_HAS_MAP] == 0)
         lt[FP_LT_SELF] = FP_SELF_EXACT;
-    if ((int)lt[FP_LT_SELF] == FP_SELF_MAP && lt[FP_LT_SUN_ON] != 0)
-        grid_bounds(d, fog, v, depth);
+    /* The grid's columns follow the sun's rays by height: a sun lower than
+     * FP_GRID_MIN_SUN_Y (3 degrees) takes the exact path. */
+    if ((int)lt[FP_LT_SELF] == FP_SELF_MAP && !(lt[FP_LT_SUN_DIR + 1] >= FP_GRID_MIN_SUN_Y))
+        lt[FP_LT_SELF] = FP_SELF_EXACT;
+    if ((int)lt[FP_LT_SELF] == FP_SELF_MAP && lt[FP_LT_SUN_ON] != 0) {
+        /* NA, NB 0: sized by the frame (filling the grid then costs about
+         * the same per pixel at every resolution). */
+        const double *g = p->light.self_shadow_grid;
+        int autosize = floor(g[0]) == 0 && floor(g[1]) == 0;
+        double side = fmin(fmax(round(0.5 * sqrt((double)v->width * v->height)), 64), 256);
+        lt[FP_LT_GRID_N] = autosize ? side : floor(g[0]);
+        lt[FP_LT_GRID_N + 1] = autosize ? side : floor(g[1]);
+        int rc = grid_bounds(d, fog, v, depth);
+        if (rc)
+            return rc;
+    }
     static _Atomic unsigned long serial;
     d->serial = ++serial;
     return FP_OK;
@@ -575,12 +700,17 @@ double fp_scatter_sun_brute(const fp_scatter_data_t *d, const fp_integrate_data_
     return s;
 }
 
-/* The self-shadow grid on the CPU (exact optical depth at each node). */
+static size_t grid_nodes(const double *lt)
+{
+    return (size_t)lt[FP_LT_GRID_K] * (size_t)lt[FP_LT_GRID_N] * (size_t)lt[FP_LT_GRID_N + 1] *
+           (size_t)lt[FP_LT_GRID_N + 2];
+}
+
+/* The self-shadow grid on the CPU, column by column (fp_sun_od_column). */
 static int fill_grid(fp_scatter_data_t *d, const fp_integrate_data_t *fog)
 {
     const double *lt = d->lt;
-    int nx = (int)lt[FP_LT_GRID_N], ny = (int)lt[FP_LT_GRID_N + 1], nz = (int)lt[FP_LT_GRID_N + 2];
-    size_t n = (size_t)nx * ny * nz;
+    size_t n = grid_nodes(lt);
     if (d->grid_n != n) {
         free(d->grid);
         d->grid = malloc(n * sizeof *d->grid);
@@ -589,16 +719,11 @@ static int fill_grid(fp_scatter_data_t *d, const fp_integrate_data_t *fog)
             return fp_error("self-shadow grid: out of memory");
     }
     const fp_fog_tables_t *t = fog->tables;
-    for (int k = 0; k < nz; k++)
-        for (int j = 0; j < ny; j++)
-            for (int i = 0; i < nx; i++) {
-                double x = lt[FP_LT_GRID] + i * lt[FP_LT_GRID_CELL];
-                double y = lt[FP_LT_GRID + 1] + j * lt[FP_LT_GRID_CELL + 1];
-                double z = lt[FP_LT_GRID + 2] + k * lt[FP_LT_GRID_CELL + 2];
-                d->grid[((size_t)k * ny + j) * nx + i] = (float)fp_fog_od(
-                    fog->fp, TABLES(t), x, y, z, lt[FP_LT_SUN_DIR], lt[FP_LT_SUN_DIR + 1],
-                    lt[FP_LT_SUN_DIR + 2], INFINITY, 0);
-            }
+    int na = (int)lt[FP_LT_GRID_N], nb = (int)lt[FP_LT_GRID_N + 1], K = (int)lt[FP_LT_GRID_K];
+    for (int c = 0; c < K; c++)
+        for (int j = 0; j < nb; j++)
+            for (int i = 0; i < na; i++)
+                fp_sun_od_column(fog->fp, TABLES(t), lt, d->grid, c, i, j);
     return FP_OK;
 }
 
@@ -693,9 +818,7 @@ static int upload(fp_scatter_cl_t *s, const fp_scatter_data_t *d)
                              (void *)(d->smap ? d->smap : no_map), &err);
     if (fp_cl_check(err, "scatter: shadow map"))
         return FP_ERR;
-    size_t ng = uses_grid(d) ? (size_t)d->lt[FP_LT_GRID_N] * (size_t)d->lt[FP_LT_GRID_N + 1] *
-                                   (size_t)d->lt[FP_LT_GRID_N + 2]
-                             : 1;
+    size_t ng = uses_grid(d) ? grid_nodes(d->lt) : 1;
     if (!s->grid || s->grid_n != ng) {
         if (s->grid)
             clReleaseMemObject(s->grid);
@@ -726,7 +849,7 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
     if (uses_grid(d) && !grid_current(&s->grid_key, d, fog)) {
         cl_kernel g = s->grid_kernel;
         size_t global[3] = { (size_t)d->lt[FP_LT_GRID_N], (size_t)d->lt[FP_LT_GRID_N + 1],
-                             (size_t)d->lt[FP_LT_GRID_N + 2] };
+                             (size_t)d->lt[FP_LT_GRID_K] };
         if (FP_CL_ARG(g, 0, s->grid) || FP_CL_ARG(g, 1, ic->params) || FP_CL_ARG(g, 2, ic->lvi) ||
             FP_CL_ARG(g, 3, ic->lvf) || FP_CL_ARG(g, 4, ic->coef) || FP_CL_ARG(g, 5, ic->occ) ||
             FP_CL_ARG(g, 6, s->lt) ||

@@ -40,20 +40,28 @@
 #define FP_LT_SS_THICK 45    /* assumed thickness of what the depth buffer shows */
 #define FP_LT_SS_M 46        /* 9: fog vector -> camera vector (inverse of view m) */
 #define FP_LT_SS_H 55        /* 9: camera (x/z, y/z, 1) -> NDC, homogeneous */
-#define FP_LT_GRID 64        /* 3: self-shadow grid origin (fog space) */
-#define FP_LT_GRID_CELL 67   /* 3: cell size */
-#define FP_LT_GRID_N 70      /* 3: nodes along x, y, z */
+#define FP_LT_SUN_E1 64      /* 3: unit, horizontal, across the sun: the self-shadow grid's a */
+#define FP_LT_SUN_E2 67      /* 3: unit, horizontal, toward the sun: its b axis (at y = 0) */
+#define FP_LT_GRID_N 70      /* 3: nodes of each cascade of the grid along a, b and y */
 #define FP_LT_OD_STOP 73     /* the view ray's in-scatter ends where its optical depth exceeds this */
 #define FP_LT_SEG_OD 74     /* largest optical depth of one segment of the view ray */
 #define FP_LT_SEG_JUMP 75   /* largest change of the light over one segment, weighted */
 #define FP_LT_INTERLEAVE 76 /* 2: n x m pattern of per-pixel sample offsets (1, 1: off) */
 #define FP_LT_LIGHT_QUAD 78 /* local lights: 0 equiangular panels, 1 the fast rule (no fogmap) */
-#define FP_LT_SM_LEVELS 79  /* levels of the shadow map's min-max pyramid (shafts_core.h) */
-#define FP_LT_SS_ZMAX 80    /* --shadows screen: the deepest finite z of the depth buffer */
-#define FP_LT_LIGHTS 84      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
+#define FP_LT_GRID_K 79      /* cascades of the self-shadow grid (1..FP_LT_MAX_CASCADES) */
+#define FP_LT_LIGHTS 80      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
 #define FP_LT_LIGHT_STRIDE 16
 #define FP_LT_MAX_LIGHTS 8
-#define FP_LT_COUNT (FP_LT_LIGHTS + FP_LT_MAX_LIGHTS * FP_LT_LIGHT_STRIDE)
+/* The self-shadow grid's cascades, finest first: per cascade its first
+ * node (a, b, s in the sun's frame) and its cell (3 + 3). */
+#define FP_LT_CASCADE (FP_LT_LIGHTS + FP_LT_MAX_LIGHTS * FP_LT_LIGHT_STRIDE)
+#define FP_LT_MAX_CASCADES 4
+/* 2: the main fog's base Y0 (fog space) and scale height H of the grid's
+ * weight (H 0: none): the nodes hold od w(y), w = e^(max(y - Y0, 0) / H). */
+#define FP_LT_GRID_W (FP_LT_CASCADE + 6 * FP_LT_MAX_CASCADES)
+#define FP_LT_SM_LEVELS (FP_LT_GRID_W + 2) /* levels of the shadow map's min-max pyramid */
+#define FP_LT_SS_ZMAX (FP_LT_GRID_W + 3)   /* --shadows screen: the depth buffer's deepest z */
+#define FP_LT_COUNT (FP_LT_GRID_W + 4)
 
 /* One local light's row. */
 #define FP_LL_TYPE 0         /* FP_LIGHT_POINT, FP_LIGHT_SPOT */
@@ -397,28 +405,118 @@ FP_FN fp_real fp_sun_visibility(FP_CONSTANT const fp_real *lt, FP_GLOBAL const f
     return 1;
 }
 
-/* Optical depth from a point to the sun, from the precomputed grid
- * (trilinear; the grid holds the exact optical depth at its nodes), or -1
- * when the point is outside it. */
+/* The self-shadow grid (--self-shadow map): optical depth to the sun on
+ * columns along the sun's rays, in a frame that follows them: a point p
+ * lies on the sun ray through (a e1 + b e2, 0), e1 and e2 horizontal (e1
+ * across the sun, e2 toward it), at height y; so a = p.e1, b = p.e2 -
+ * p.y |l_h| / l_y, and the optical depth varies slowly along y (the
+ * integral of the extinction) and with the fog's detail across (a, b).
+ * Nodes are regular in (a, b, y) on nested cascades of NA x NB x NY nodes
+ * around the camera (the finest holds the view rays' fog nearest the
+ * camera; filters/scatter.c grid_bounds, which also puts a plane of nodes
+ * on the fog's top, where the extinction jumps).  Node (c, i, j, k) is
+ * grid[((c NB + j) NA + i) NY + k]. */
+FP_FN int fp_sun_od_index(FP_CONSTANT const fp_real *lt, int c, int i, int j, int k)
+{
+    int na = (int)lt[FP_LT_GRID_N], nb = (int)lt[FP_LT_GRID_N + 1], ns = (int)lt[FP_LT_GRID_N + 2];
+    return ((c * nb + j) * na + i) * ns + k;
+}
+
+/* The grid's weight at height y: the optical depth toward the sun of
+ * height fog falls as e^(-(y - Y0) / H) above Y0 (and linearly below), so
+ * od w(y) is nearly constant along a column above Y0 and linear below,
+ * which the interpolation between nodes follows exactly (a fogmap adds
+ * only its own variation).  Capped where the optical depth is nil. */
+FP_FN fp_real fp_sun_od_weight(FP_CONSTANT const fp_real *lt, fp_real y)
+{
+    fp_real H = lt[FP_LT_GRID_W + 1];
+    fp_real e = fmin(fmax(y - lt[FP_LT_GRID_W], (fp_real)0) / fmax(H, (fp_real)1e-30),
+                     (fp_real)80);
+    return H > 0 ? exp(e) : (fp_real)1;
+}
+
+/* The fog-space point of node (c, i, j, k). */
+FP_FN void fp_sun_od_node(FP_CONSTANT const fp_real *lt, int c, int i, int j, int k, fp_real *p)
+{
+    FP_CONSTANT const fp_real *box = lt + FP_LT_CASCADE + 6 * c;
+    fp_real a = box[0] + i * box[3], b = box[1] + j * box[4], y = box[2] + k * box[5];
+    fp_real t = y / lt[FP_LT_SUN_DIR + 1];
+    for (int d = 0; d < 3; d++)
+        p[d] = a * lt[FP_LT_SUN_E1 + d] + b * lt[FP_LT_SUN_E2 + d] + t * lt[FP_LT_SUN_DIR + d];
+}
+
+/* One column of the grid, the nodes (c, i, j, 0..NS-1) along the sun: the
+ * exact optical depth from the last node to the sun, then each node's as
+ * the next one's plus the exact optical depth of the stretch between
+ * them (one walk toward the sun per column, in short pieces). */
+FP_FN void fp_sun_od_column(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                            FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
+                            FP_GLOBAL float *grid, int c, int i, int j)
+{
+    int ns = (int)lt[FP_LT_GRID_N + 2];
+    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
+    fp_real hs = lt[FP_LT_CASCADE + 6 * c + 5] / l[1];
+    int at = fp_sun_od_index(lt, c, i, j, 0);
+    fp_real p[3];
+    fp_sun_od_node(lt, c, i, j, ns - 1, p);
+    fp_real od = fp_fog_od(fp, lvi, lvf, coef, occ, p[0], p[1], p[2], l[0], l[1], l[2], FP_INF, 0);
+    grid[at + ns - 1] = (float)(od * fp_sun_od_weight(lt, p[1]));
+    for (int k = ns - 2; k >= 0; k--) {
+        fp_sun_od_node(lt, c, i, j, k, p);
+        od += fp_fog_od(fp, lvi, lvf, coef, occ, p[0], p[1], p[2], l[0], l[1], l[2], hs, 0);
+        grid[at + k] = (float)(od * fp_sun_od_weight(lt, p[1]));
+    }
+}
+
+/* The grid's coordinates of a fog-space point: (a, b, y) in cells of
+ * the finest cascade that holds it, *c that cascade; 0 when none does. */
+FP_FN int fp_sun_od_cell(FP_CONSTANT const fp_real *lt, fp_real x, fp_real y, fp_real z, int *c,
+                         fp_real *g)
+{
+    int na = (int)lt[FP_LT_GRID_N], nb = (int)lt[FP_LT_GRID_N + 1], ns = (int)lt[FP_LT_GRID_N + 2];
+    int K = (int)lt[FP_LT_GRID_K];
+    FP_CONSTANT const fp_real *e1 = lt + FP_LT_SUN_E1, *e2 = lt + FP_LT_SUN_E2,
+                              *l = lt + FP_LT_SUN_DIR;
+    fp_real a = x * e1[0] + z * e1[2];
+    fp_real b = x * e2[0] + z * e2[2] - y * (l[0] * e2[0] + l[2] * e2[2]) / l[1];
+    for (int k = 0; k < K; k++) {
+        FP_CONSTANT const fp_real *box = lt + FP_LT_CASCADE + 6 * k;
+        g[0] = (a - box[0]) / box[3];
+        g[1] = (b - box[1]) / box[4];
+        g[2] = (y - box[2]) / box[5];
+        if (g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && g[0] <= na - 1 && g[1] <= nb - 1 &&
+            g[2] <= ns - 1) {
+            *c = k;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Optical depth from a point to the sun, from the grid (trilinear in the
+ * finest cascade that holds the point; the nodes hold the exact optical
+ * depth), or -1 when no cascade holds it. */
 FP_FN fp_real fp_sun_od_grid(FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid,
                              fp_real x, fp_real y, fp_real z)
 {
-    int nx = (int)lt[FP_LT_GRID_N], ny = (int)lt[FP_LT_GRID_N + 1], nz = (int)lt[FP_LT_GRID_N + 2];
-    fp_real gx = (x - lt[FP_LT_GRID]) / lt[FP_LT_GRID_CELL];
-    fp_real gy = (y - lt[FP_LT_GRID + 1]) / lt[FP_LT_GRID_CELL + 1];
-    fp_real gz = (z - lt[FP_LT_GRID + 2]) / lt[FP_LT_GRID_CELL + 2];
-    if (!(gx >= 0 && gy >= 0 && gz >= 0 && gx <= nx - 1 && gy <= ny - 1 && gz <= nz - 1))
+    int na = (int)lt[FP_LT_GRID_N], nb = (int)lt[FP_LT_GRID_N + 1], ns = (int)lt[FP_LT_GRID_N + 2];
+    int c;
+    fp_real g[3];
+    if (!fp_sun_od_cell(lt, x, y, z, &c, g))
         return -1;
-    int i = (int)fmin(floor(gx), (fp_real)(nx - 2)), j = (int)fmin(floor(gy), (fp_real)(ny - 2)),
-        k = (int)fmin(floor(gz), (fp_real)(nz - 2));
-    fp_real ax = gx - i, ay = gy - j, az = gz - k, od = 0;
-    for (int c = 0; c < 8; c++) {
-        int di = c & 1, dj = (c >> 1) & 1, dk = c >> 2;
+    int i = (int)fmin(floor(g[0]), (fp_real)(na - 2));
+    int j = (int)fmin(floor(g[1]), (fp_real)(nb - 2));
+    int k = (int)fmin(floor(g[2]), (fp_real)(ns - 2));
+    fp_real ax = g[0] - i, ay = g[1] - j, az = g[2] - k, od = 0;
+    int at = fp_sun_od_index(lt, c, i, j, k);
+    for (int q = 0; q < 8; q++) {
+        int di = q & 1, dj = (q >> 1) & 1, dk = q >> 2;
         fp_real w = (di ? ax : 1 - ax) * (dj ? ay : 1 - ay) * (dk ? az : 1 - az);
         if (w > 0) /* a node may hold +inf: no 0 * inf */
-            od += w * grid[((k + dk) * ny + (j + dj)) * nx + (i + di)];
+            od += w * grid[at + (dj * na + di) * ns + dk];
     }
-    return od;
+    return od / fp_sun_od_weight(lt, y);
 }
 
 /* Transmittance from a point toward the sun through the fog (tau_k). */

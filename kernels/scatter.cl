@@ -33,22 +33,17 @@ __kernel void scatter_fog(__global const float *depth, __global float4 *fog_out,
     fog_out[out] = (float4)(S[0], S[1], S[2], tau);
 }
 
-/* The self-shadow grid: optical depth from each node to the sun, exact. */
+/* The self-shadow grid (light_core.h): one column of nodes along the sun
+ * per work-item, (i, j) across the sun in cascade c. */
 __kernel void sun_od_grid(__global float *grid, __constant const float *fp,
                           __constant const int *lvi, __constant const float *lvf,
                           __global const float *coef, __global const uchar *occ,
                           __constant const float *lt)
 {
-    int i = get_global_id(0), j = get_global_id(1), k = get_global_id(2);
-    int nx = (int)lt[FP_LT_GRID_N], ny = (int)lt[FP_LT_GRID_N + 1], nz = (int)lt[FP_LT_GRID_N + 2];
-    if (i >= nx || j >= ny || k >= nz)
+    int i = get_global_id(0), j = get_global_id(1), c = get_global_id(2);
+    if (i >= (int)lt[FP_LT_GRID_N] || j >= (int)lt[FP_LT_GRID_N + 1] || c >= (int)lt[FP_LT_GRID_K])
         return;
-    float x = lt[FP_LT_GRID] + i * lt[FP_LT_GRID_CELL];
-    float y = lt[FP_LT_GRID + 1] + j * lt[FP_LT_GRID_CELL + 1];
-    float z = lt[FP_LT_GRID + 2] + k * lt[FP_LT_GRID_CELL + 2];
-    __constant const float *l = lt + FP_LT_SUN_DIR;
-    grid[(k * ny + j) * nx + i] = fp_fog_od(fp, lvi, lvf, coef, occ, x, y, z, l[0], l[1], l[2],
-                                            INFINITY, 0);
+    fp_sun_od_column(fp, lvi, lvf, coef, occ, lt, grid, c, i, j);
 }
 
 /* One local light (fast rule, fog without a fogmap) added to the fog layer

@@ -99,7 +99,7 @@ typedef struct fp_animate_params_t {
 
 #define FP_MAX_LIGHTS 8
 enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN };
-enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP };
+enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP, FP_SELF_SHADOW_AUTO };
 enum { FP_LIGHT_QUAD_FAST = 0, FP_LIGHT_QUAD_PANELS };
 
 /* One --light: kind (0 point, 1 spot), position, color, intensity (W/sr),
@@ -128,6 +128,7 @@ typedef struct fp_light_params_t {
     double screen_shadow[3]; /* steps, distance, thickness */
     int self_shadow;      /* FP_SELF_SHADOW_* */
     double self_shadow_grid[3];
+    int self_shadow_cascades;
     int scatter_steps;
     int light_panels;
     int light_quad;       /* FP_LIGHT_QUAD_* */

@@ -24,6 +24,10 @@ trap 'rm -rf "$tmp"' EXIT
   "$FP_BENCH_LIGHT" "$tmp/light/scene.0001.exr" "$tmp/light/shadow.0001.exr" "$tmp/light/fogmap.exr"
   echo
   "$FP_BENCH_LOOKS" "$tmp/hd" "$tmp/looks" && echo   # issue 12: the looks against their goals
+  # Fog self-shadowing: the default grid's cost and error (the looks' frames).
+  if [ -n "${FP_BENCH_SELFSHADOW:-}" ]; then
+    "$FP_BENCH_SELFSHADOW" "$tmp/looks/small" "$tmp/looks/mid" && echo
+  fi
   # The accuracy of light in the fog: each line is printed by a test of
   # make check that fails when its figure leaves the stated tolerance.
   echo "### Accuracy of light in the fog (figures printed by the tests)"
