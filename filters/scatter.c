@@ -199,10 +199,9 @@ const fp_option_t fp_scatter_options[] = {
       "the view rays' fog within each a cascade of its own", NULL, 0 },
     { "scatter-steps", 0, FP_OPT_INT, LI(scatter_steps), 0, 0, "64", 1, FP_SCATTER_MAX_STEPS / 2,
       NULL, "N",
-      "segments along each view ray for the sun's in-scattering without a shadow map (each "
-      "integrated exactly for extinction, the light linear within it); with one, the longest "
-      "step of 1/N of the ray where a fogmap's self-shadowing is carried (none in height fog: "
-      "exact)", NULL, 0 },
+      "segments along each view ray for the sun's in-scattering without a shadow map or "
+      "screen shadows (each integrated exactly for extinction, the light linear within it); "
+      "the shafts with them need none", NULL, 0 },
     { "interleave", 0, FP_OPT_VEC, LI(interleave), 2, 2, "1,1", 1, 16, NULL, "N,M",
       "interleaved sampling (Keller and Heidrich 2001): the samples along each ray shift by "
       "one of N x M offsets, a tile repeated over the frame (the same every frame), for the "

@@ -565,8 +565,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     if (shafts && !layered) {
         if (ph_sun > 0)
             fp_shafts_add(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width, height, ox,
-                          oy, oz, dx, dy, dz, ta, tb, 0, (tb - ta) / n, od_total,
-                          albedo * ph_sun, S);
+                          oy, oz, dx, dy, dz, ta, tb, 0, (tb - ta) / FP_SHAFT_STEPS,
+                          od_total, albedo * ph_sun, S);
         ph_sun = 0;
         if (nl == 0 || fast_lights)
             return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total,

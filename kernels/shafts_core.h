@@ -26,9 +26,9 @@
  * exact with fog self-shadowing included.  Otherwise (a fogmap, a box with
  * sides) C is carried along the ray: each step's optical depth exact, the
  * sun's optical depth taken linear in u within it (so the sun's
- * transmittance exponential: exact where it is affine), steps halved where
- * the transmittance changes (--scatter-steps: the longest step); exact
- * without self-shadowing.
+ * transmittance exponential: exact where it is affine), steps of at most
+ * 1/FP_SHAFT_STEPS of the ray halved where the transmittance changes;
+ * exact without self-shadowing.
  *
  * Filtering (--shadow-filter R): the visibility ramps linearly over R
  * texels' worth of the ray around each end of a run, never more than half
@@ -43,6 +43,10 @@
  * max of zb over 2^L x 2^L blocks, (W + 2^L - 1) >> L blocks a row, up to
  * the level of one block. */
 #define FP_SM_MAX_LEVELS 15
+
+/* Where C is carried: the longest step, a share of the ray (steps are
+ * halved where the sun's transmittance or the fog changes). */
+#define FP_SHAFT_STEPS 8
 
 /* C(t) along one ray: the closed form, or carried along the ray. */
 typedef struct {
@@ -77,7 +81,12 @@ FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
         return fp_sun_layered_C(a->e0, a->k,
                                 fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, t, 0));
     int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
-    fp_real xmax = lt[FP_LT_SEG_OD], jmax = (fp_real)0.02 * lt[FP_LT_SEG_JUMP];
+    /* Exact self-shadowing is followed to 1/50 of the segments' light
+     * jump (1e-5 of S in the tests); the grid's own error is larger than
+     * the segments'. */
+    fp_real xmax = lt[FP_LT_SEG_OD];
+    fp_real jmax = ((int)lt[FP_LT_SELF] == FP_SELF_EXACT ? (fp_real)0.02 : (fp_real)1) *
+                   lt[FP_LT_SEG_JUMP];
     for (int guard = 0; a->t < t && guard < 4096; guard++) {
         fp_real h = fmin(a->h, t - a->t);
         fp_real t1 = h >= t - a->t ? t : a->t + h;
