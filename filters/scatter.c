@@ -592,14 +592,32 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
          * beyond it (fp_shafts_screen). */
         float view[FP_VIEW_FLOATS];
         fp_view_pack(v, view);
+        size_t np = (size_t)v->width * v->height;
+        float *z = malloc(np * sizeof *z);
+        if (!z)
+            return fp_error("frame %ld: out of memory", frame);
         double zmax = 0;
         for (int y = 0; y < v->height; y++)
             for (int x = 0; x < v->width; x++) {
-                double z = fp_scene_z(view, depth, v->width, x, y);
-                if (z < INFINITY)
-                    zmax = fmax(zmax, z);
+                double zs = fp_scene_z(view, depth, v->width, x, y);
+                z[(size_t)y * v->width + x] = (float)zs;
+                if (zs < INFINITY)
+                    zmax = fmax(zmax, zs);
             }
         lt[FP_LT_SS_ZMAX] = zmax;
+        /* The walk's map: the scene z per pixel and its min-max pyramid. */
+        float *packed = NULL;
+        int levels = 0;
+        int bad = fp_shafts_pyramid(z, v->width, v->height, &packed, &np, &levels);
+        free(z);
+        if (bad)
+            return fp_error("frame %ld: out of memory", frame);
+        free(d->smap);
+        d->smap = packed;
+        d->smap_n = np;
+        d->smap_w = v->width;
+        d->smap_h = v->height;
+        lt[FP_LT_SM_LEVELS] = levels;
     }
     /* Without a fogmap the exact optical depth toward the sun is a closed
      * form: faster than any grid. */

@@ -16,6 +16,10 @@
 int fp_shafts_build(const float *z, int w, int h, double max_slope_bias, double user_bias,
                     float **out, size_t *n, int *levels);
 
+/* The same pyramid over z as it is (NaN: +inf), no bias: the depth
+ * buffer's scene z for --shadows screen. */
+int fp_shafts_pyramid(const float *z, int w, int h, float **out, size_t *n, int *levels);
+
 /* Levels of the pyramid for a W x H map (one block at the last). */
 int fp_shafts_levels(int w, int h);
 

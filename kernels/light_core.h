@@ -180,6 +180,7 @@ FP_FN fp_real fp_scene_z(FP_CONSTANT const float *view, FP_GLOBAL const float *d
  * pixel toward the sun as far as DIST reaches, gives the view ray's
  * shadowed set exactly, as a union of intervals (merged, sorted). */
 #define FP_SS_MAX_IV 48
+#define FP_SM_MAX_LEVELS 15   /* levels of a min-max pyramid (shadow map, depth buffer) */
 
 /* h (camera (ux, uy, uw) -> NDC homogeneous) of the screen vector of a
  * camera vector V: perspective (Vx, Vy, Vz); orthographic (Vx, Vy, w),
@@ -217,28 +218,31 @@ FP_FN int fp_ss_clip(fp_real *pt, fp_real *ps, int n, fp_real A, fp_real B, fp_r
     return m;
 }
 
-/* The t-interval of (t, s) in [t0, t1] x [0, smax] shadowed through pixel
- * (i, j) of scene z zs: X = C0 + t D + s L in camera space, nt, ns, nc
- * their NDC rows (fp_ss_ndc); for a point (t0 = t1), its s-interval.
- * Returns 0 when none. */
-FP_FN int fp_ss_pixel(FP_CONSTANT const float *view, const fp_real *nt, const fp_real *ns,
+/* The t-interval of (t, s) in [t0, t1] x [0, smax] shadowed through the
+ * pixels [i0, i1) x [j0, j1) with camera z in (zlo, zhi): X = C0 + t D +
+ * s L in camera space, nt, ns, nc their NDC rows (fp_ss_ndc); for a point
+ * (t0 = t1), its s-interval.  Returns 0 when none.  One pixel of scene z
+ * zs: (zs, zs + THICK); a block of them: its smallest zs to its largest
+ * plus THICK, which holds every pixel's interval. */
+FP_FN int fp_ss_cells(FP_CONSTANT const float *view, const fp_real *nt, const fp_real *ns,
                       const fp_real *nc, const fp_real *D, const fp_real *L, const fp_real *C0,
-                      int i, int j, fp_real zs, fp_real thick, fp_real t0, fp_real t1,
-                      fp_real smax, int point, fp_real *ia, fp_real *ib)
+                      int i0, int i1, int j0, int j1, fp_real zlo, fp_real zhi, fp_real t0,
+                      fp_real t1, fp_real smax, int point, fp_real *ia, fp_real *ib)
 {
     fp_real pt[16] = { t0, t1, t1, t0 }, ps[16] = { 0, 0, smax, smax };
     int n = 4;
     for (int ax = 0; ax < 2 && n > 0; ax++) {
         fp_real sc = view[FP_VIEW_NDC_SCALE + ax], off = view[FP_VIEW_NDC_OFFSET + ax];
-        fp_real a = ((ax ? j : i) - (fp_real)0.5 + off) * sc, b = a + sc;
+        fp_real a = ((ax ? j0 : i0) - (fp_real)0.5 + off) * sc;
+        fp_real b = ((ax ? j1 : i1) - (fp_real)0.5 + off) * sc;
         fp_real lo = fmin(a, b), hi = fmax(a, b);
         /* lo <= N_ax / N_3 <= hi, N_3 > 0 */
         n = fp_ss_clip(pt, ps, n, nt[ax] - lo * nt[2], ns[ax] - lo * ns[2], nc[ax] - lo * nc[2]);
         n = fp_ss_clip(pt, ps, n, hi * nt[2] - nt[ax], hi * ns[2] - ns[ax], hi * nc[2] - nc[ax]);
     }
     n = fp_ss_clip(pt, ps, n, nt[2], ns[2], nc[2]);
-    n = fp_ss_clip(pt, ps, n, D[2], L[2], C0[2] - zs);
-    n = fp_ss_clip(pt, ps, n, -D[2], -L[2], zs + thick - C0[2]);
+    n = fp_ss_clip(pt, ps, n, D[2], L[2], C0[2] - zlo);
+    n = fp_ss_clip(pt, ps, n, -D[2], -L[2], zhi - C0[2]);
     if (n < 3)
         return 0;
     /* A point (t0 = t1): shadowed when some s is left. */
@@ -293,9 +297,12 @@ FP_FN int fp_ss_insert(fp_real *iv, int n, fp_real a, fp_real b)
 /* The shadowed t of X = o + t d + s l, t in [t0, t1] (t1 finite; d = 0 for
  * one point, t0 = t1 = 0), from pixel (ax, ay) (the projection of the ray,
  * in pixel units: pixel i spans [i, i + 1)) toward the sun: into iv,
- * returns their count.  A point stops at its first shadow. */
+ * returns their count.  A point stops at its first shadow.  zpyr: the
+ * frame's scene z per pixel (+inf: sky) and its min-max pyramid, as the
+ * shadow map's (fp_shafts_pyramid, filters/shafts.c): a block whose
+ * pixels cannot shadow the stretch is crossed in one step. */
 FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
-                     FP_GLOBAL const float *depth, int width, int height, fp_real ox,
+                     FP_GLOBAL const float *zpyr, int width, int height, fp_real ox,
                      fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real t0,
                      fp_real t1, fp_real ax, fp_real ay, int point, fp_real *iv)
 {
@@ -329,41 +336,68 @@ FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *vie
     fp_real bx = nb[0] / nb[2] / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
     fp_real by = nb[1] / nb[2] / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] +
                  (fp_real)0.5;
-    /* A 2D DDA over the pixels of [a, b] within the screen. */
+    /* A hierarchical 2D DDA over the pixels of [a, b] within the screen,
+     * in the parameter u of a + u (b - a). */
     fp_real ex = bx - ax, ey = by - ay, u0 = 0, u1 = 1;
     fp_clip(ax, ex, 0, (fp_real)width, &u0, &u1);
     fp_clip(ay, ey, 0, (fp_real)height, &u0, &u1);
     if (!(u1 >= u0))
         return 0;
-    fp_real sx = ax + u0 * ex, sy = ay + u0 * ey;
-    int i = (int)fmin(fmax(floor(sx), (fp_real)0), (fp_real)(width - 1));
-    int j = (int)fmin(fmax(floor(sy), (fp_real)0), (fp_real)(height - 1));
-    int stepx = ex > 0 ? 1 : -1, stepy = ey > 0 ? 1 : -1;
-    fp_real tdx = ex != 0 ? fabs(1 / ex) : (fp_real)FP_INF;
-    fp_real tdy = ey != 0 ? fabs(1 / ey) : (fp_real)FP_INF;
-    fp_real tmx = ex != 0 ? ((i + (ex > 0)) - ax) / ex : (fp_real)FP_INF;
-    fp_real tmy = ey != 0 ? ((j + (ey > 0)) - ay) / ey : (fp_real)FP_INF;
-    int n = 0;
-    for (int guard = 0; guard < 2 * (width + height) + 4; guard++) {
-        fp_real zs = fp_scene_z(view, depth, width, i, j);
+    int W = width, H = height, NL = (int)lt[FP_LT_SM_LEVELS];
+    int offs[FP_SM_MAX_LEVELS + 1];
+    offs[0] = 0;
+    for (int k = 1; k <= NL; k++)
+        offs[k] = k == 1 ? W * H
+                         : offs[k - 1] + 2 * ((W + (1 << (k - 1)) - 1) >> (k - 1)) *
+                                             ((H + (1 << (k - 1)) - 1) >> (k - 1));
+    int ix = (int)fmin(fmax(floor(ax + u0 * ex), (fp_real)0), (fp_real)(W - 1));
+    int iy = (int)fmin(fmax(floor(ay + u0 * ey), (fp_real)0), (fp_real)(H - 1));
+    int lv = NL, n = 0;
+    for (int guard = 0; guard < 8 * (W + H) + 64; guard++) {
+        int sz = 1 << lv, bi = ix >> lv, bj = iy >> lv;
+        fp_real uX = ex > 0 ? ((fp_real)((bi + 1) * sz) - ax) / ex
+                     : ex < 0 ? ((fp_real)(bi * sz) - ax) / ex : (fp_real)FP_INF;
+        fp_real uY = ey > 0 ? ((fp_real)((bj + 1) * sz) - ay) / ey
+                     : ey < 0 ? ((fp_real)(bj * sz) - ay) / ey : (fp_real)FP_INF;
+        fp_real zlo, zhi;
+        if (lv == 0) {
+            zlo = zhi = zpyr[iy * W + ix];
+        } else {
+            int o = offs[lv] + 2 * (bj * ((W + sz - 1) >> lv) + bi);
+            zlo = zpyr[o];
+            zhi = zpyr[o + 1];
+        }
         fp_real a, b;
-        if (zs < FP_INF && fp_ss_pixel(view, nt, ns, nc, D, L, C0, i, j, zs, thick, t0, t1, dist,
-                                       point, &a, &b)) {
+        int hit = zlo < FP_INF &&
+                  fp_ss_cells(view, nt, ns, nc, D, L, C0, bi * sz, (bi + 1) * sz < W ? (bi + 1) * sz : W,
+                              bj * sz, (bj + 1) * sz < H ? (bj + 1) * sz : H, zlo, zhi + thick, t0,
+                              t1, dist, point, &a, &b);
+        if (hit && lv > 0) {
+            lv--;
+            continue;
+        }
+        if (hit) {
             n = fp_ss_insert(iv, n, a, b);
             if (point)
                 break;
         }
-        if (fmin(tmx, tmy) > u1)
+        fp_real ue = fmin(uX, uY);
+        if (ue >= u1)
             break;
-        if (tmx < tmy) {
-            i += stepx;
-            tmx += tdx;
+        /* Into the next cell: the axis crossed moves one block on, the
+         * other stays within the block's row or column. */
+        if (uX <= uY) {
+            ix = ex > 0 ? (bi + 1) * sz : bi * sz - 1;
+            int jv = (int)floor(ay + ue * ey);
+            iy = jv < bj * sz ? bj * sz : jv > bj * sz + sz - 1 ? bj * sz + sz - 1 : jv;
         } else {
-            j += stepy;
-            tmy += tdy;
+            iy = ey > 0 ? (bj + 1) * sz : bj * sz - 1;
+            int iu = (int)floor(ax + ue * ex);
+            ix = iu < bi * sz ? bi * sz : iu > bi * sz + sz - 1 ? bi * sz + sz - 1 : iu;
         }
-        if (i < 0 || j < 0 || i >= width || j >= height)
+        if (ix < 0 || iy < 0 || ix >= W || iy >= H)
             break;
+        lv = lv < NL ? lv + 1 : NL;
     }
     return n;
 }
@@ -371,7 +405,7 @@ FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *vie
 /* A point's visibility of the sun under --shadows screen, by the same
  * rule (the brute force's and the Monte Carlo reference's). */
 FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
-                               FP_GLOBAL const float *depth, int width, int height, fp_real x,
+                               FP_GLOBAL const float *zpyr, int width, int height, fp_real x,
                                fp_real y, fp_real z)
 {
     FP_CONSTANT const fp_real *m = lt + FP_LT_SS_M, *h = lt + FP_LT_SS_H;
@@ -387,7 +421,7 @@ FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const 
     if (!(px >= 0 && py >= 0 && px < width && py < height))
         return 1;
     fp_real iv[2 * FP_SS_MAX_IV];
-    return fp_ss_walk(lt, view, depth, width, height, x, y, z, 0, 0, 0, 0, 0, px, py, 1, iv) > 0
+    return fp_ss_walk(lt, view, zpyr, width, height, x, y, z, 0, 0, 0, 0, 0, px, py, 1, iv) > 0
                ? (fp_real)0
                : (fp_real)1;
 }
@@ -401,7 +435,7 @@ FP_FN fp_real fp_sun_visibility(FP_CONSTANT const fp_real *lt, FP_GLOBAL const f
     if (mode == FP_SHADOWS_MAP)
         return fp_shadow_map(lt, smap, x, y, z);
     if (mode == FP_SHADOWS_SCREEN)
-        return fp_shadow_screen(lt, view, depth, width, height, x, y, z);
+        return fp_shadow_screen(lt, view, smap, width, height, x, y, z);
     return 1;
 }
 

@@ -42,8 +42,6 @@
  * filters/shafts.c): after the W x H biased depths, per level the min and
  * max of zb over 2^L x 2^L blocks, (W + 2^L - 1) >> L blocks a row, up to
  * the level of one block. */
-#define FP_SM_MAX_LEVELS 15
-
 /* Where C is carried: the longest step, a share of the ray (steps are
  * halved where the sun's transmittance or the fog changes). */
 #define FP_SHAFT_STEPS 8
@@ -362,13 +360,13 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
 #undef FP_SUN_ARGS
 
 /* The sun's share along a view ray under --shadows screen: the runs from
- * the walk's intervals (fp_ss_walk, kernels/light_core.h), C as for the
- * map. */
+ * the walk's intervals (fp_ss_walk, kernels/light_core.h, over zpyr: the
+ * depth buffer's scene z and its pyramid), C as for the map. */
 FP_FN fp_real fp_shafts_screen(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                                FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                                FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
                                FP_GLOBAL const float *grid, FP_CONSTANT const float *view,
-                               FP_GLOBAL const float *depth, int width, int height,
+                               FP_GLOBAL const float *zpyr, int width, int height,
                                fp_real ox, fp_real oy, fp_real oz, fp_real dx,
                                fp_real dy, fp_real dz, fp_real ta, fp_real tb, int layered,
                                fp_real h0, fp_real od_total)
@@ -396,7 +394,7 @@ FP_FN fp_real fp_shafts_screen(FP_CONSTANT const fp_real *fp, FP_CONSTANT const 
                  (fp_real)0.5;
     fp_real iv[2 * FP_SS_MAX_IV];
     int n = isinf(tw) || !(c[2] > 0) ? 0
-            : fp_ss_walk(lt, view, depth, width, height, ox, oy, oz, dx, dy, dz, ta, tw, px, py,
+            : fp_ss_walk(lt, view, zpyr, width, height, ox, oy, oz, dx, dy, dz, ta, tw, px, py,
                          0, iv);
     fp_real t = ta;
     for (int k = 0; k < n; k++) {
@@ -424,7 +422,7 @@ FP_FN void fp_shafts_add(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
                          fp_real od_total, fp_real w, fp_real *S)
 {
     fp_real sun = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN
-                      ? fp_shafts_screen(fp, lvi, lvf, coef, occ, lt, grid, view, depth, width,
+                      ? fp_shafts_screen(fp, lvi, lvf, coef, occ, lt, grid, view, smap, width,
                                          height, ox, oy, oz, dx, dy, dz, ta, tb, layered, h0,
                                          od_total)
                       : fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx,

@@ -1709,7 +1709,7 @@ static void test_screen_shadows(void **state)
         double z = kind == 0 ? 2 + 7.5 * urand() : kind == 1 ? 2 + 12 * urand()
                                                              : 11.5 + 3 * urand();
         double t = z / dir[2], x = t * dir[0], y = t * dir[1];
-        double vis = fp_sun_visibility(lt, no_map, packed, depth, w, h, x, y, z);
+        double vis = fp_sun_visibility(lt, r.sd.smap, packed, depth, w, h, x, y, z);
         double want = kind == 0 ? 0 : 1;
         if (vis != want)
             fail_msg("screen-space shadow at (%g, %g, %g) (%s): %g, expected %g", x, y, z,
@@ -1730,7 +1730,7 @@ static void test_screen_shadows(void **state)
             fp_view_ray(&v, i, j, 1, dir, &len);
             for (double z = 3; z <= 9; z += 1.5) {
                 double t = z / dir[2];
-                double vis = fp_sun_visibility(lt, no_map, packed, depth, w, h, t * dir[0],
+                double vis = fp_sun_visibility(lt, r.sd.smap, packed, depth, w, h, t * dir[0],
                                                t * dir[1], z);
                 if (vis != 0)
                     fail_msg("screen-space shadow on the wall's edge pixel (%d, %d) at z %g: %g, "
@@ -1741,7 +1741,7 @@ static void test_screen_shadows(void **state)
     assert_true(edge_pts >= 4 * h);
     /* Beyond the march's reach (20 units toward the sun) the wall casts
      * nothing: the documented limit. */
-    assert_double_equal(fp_sun_visibility(lt, no_map, packed, depth, w, h, -2, 0, -12), 1, 0);
+    assert_double_equal(fp_sun_visibility(lt, r.sd.smap, packed, depth, w, h, -2, 0, -12), 1, 0);
     print_message("screen-space shadows: %d points in front of the wall in its shadow all 0, %d "
                   "beside it and %d behind it all 1\n", n[0], n[1], n[2]);
     rig_close(&r);
@@ -2436,14 +2436,14 @@ static void test_shafts_opencl(void **state)
  * are in the depth buffer; the sun ahead, above the wall). */
 typedef struct {
     const double *lt;
-    const float *view, *depth;
+    const float *view, *zpyr;   /* the frame's scene z and its pyramid */
     int w, h;
 } screen_vis_t;
 
 static double screen_vis(void *ctx, const double p[3])
 {
     const screen_vis_t *c = ctx;
-    return fp_shadow_screen(c->lt, c->view, c->depth, c->w, c->h, p[0], p[1], p[2]);
+    return fp_shadow_screen(c->lt, c->view, c->zpyr, c->w, c->h, p[0], p[1], p[2]);
 }
 
 static void test_shafts_screen(void **state)
@@ -2462,7 +2462,7 @@ static void test_shafts_screen(void **state)
     assert_int_equal(fp_scatter_frame(&r.p, &r.sd, &r.fog, &v, depth, 1), FP_OK);
     float view[FP_VIEW_FLOATS];
     fp_view_pack(&v, view);
-    screen_vis_t sv = { r.sd.lt, view, depth, w, h };
+    screen_vis_t sv = { r.sd.lt, view, r.sd.smap, w, h };
     double worst = 0, smax = 0, got[16], want[16], lit_frac = 0;
     const int nr = 10;
     for (int k = 0; k < nr; k++) {
