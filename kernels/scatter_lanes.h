@@ -5,8 +5,8 @@
  * cases chosen among computed values (?: on vectors selects per lane).
  * Include after scatter_core.h.
  *
- * Why lanes: PoCL runs scatter_light's one-pixel work-items scalar.  Its
- * work-group loop is an outer loop around the rule's node, piece and box
+ * Why lanes: PoCL ran the former kernel (scatter_light, fp_light_ray per
+ * work-item, one pixel each) scalar.  Its work-group loop is an outer loop around the rule's node, piece and box
  * loops (LLVM's loop vectorizer only takes innermost loops; the IR that
  * PoCL leaves with POCL_LEAVE_KERNEL_COMPILER_TEMP_FILES=1 shows the five
  * inner loops inside the work-item loop and the private arrays they index

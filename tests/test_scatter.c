@@ -1462,7 +1462,7 @@ static void test_light_fast_opencl(void **state)
     size_t npx = (size_t)sc.w * sc.h;
     float *ref = malloc(npx * 4 * sizeof *ref), *got = malloc(npx * 4 * sizeof *got);
     /* Perspective, then the same projection read as orthographic (rays
-     * from the camera's plane: scatter_light's own origin and direction). */
+     * from the camera's plane: scatter_lights' own origin and direction). */
     for (int ortho = 1; ortho >= 0; ortho--) {
         sc.v.ortho = ortho;
         assert_int_equal(fp_scatter_process(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, ref), FP_OK);
