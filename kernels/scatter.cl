@@ -59,8 +59,7 @@ __kernel void sun_od_grid(__global float *grid, __constant const float *fp,
  * npix > 0 the list's entries k0 .. k0 + 15 (pixels y * width + x, results
  * in list order, work-item k0 / 16).  Lanes past the end repeat the last
  * pixel and are not stored.  The view ray is fp_view_ray's and
- * fp_view_origin_at's on lanes (fp_is_sky's NaN and infinity tests on
- * the depth's exponent bits). */
+ * fp_view_origin_at's on lanes. */
 __kernel void scatter_lights(__global const float *restrict depth,
                              __global float *restrict fog_out,
                              __constant const float *restrict view, const int width,
@@ -109,9 +108,8 @@ __kernel void scatter_lights(__global const float *restrict depth,
     /* fp_is_sky: inf, NaN, negative, 0 for inverse depth, >= 1e10, beyond
      * far. */
     int kind = (int)view[FP_VIEW_DEPTH_KIND];
-    fp_lni not_finite = (FP_LN_CAT(as_int, FP_LN_LANES)(dv) & 0x7f800000) == 0x7f800000;
     fp_lnr z = kind == FP_DEPTH_INVERSE ? 1.0f / dv : dv;
-    fp_lni sky = not_finite | (dv < 0.0f) | (z >= 1e10f) | (z >= view[FP_VIEW_FAR]);
+    fp_lni sky = isnan(dv) | (dv < 0.0f) | isinf(z) | (z >= 1e10f) | (z >= view[FP_VIEW_FAR]);
     if (kind == FP_DEPTH_INVERSE)
         sky |= dv == 0.0f;
     fp_lnr scale = kind == FP_DEPTH_PLANAR ? dv

@@ -1437,8 +1437,9 @@ static void test_light_lanes(void **state)
  * reference on the sample frame with the night-street-lamps look (no
  * fogmap): the whole frame (perspective and orthographic), the frame cut
  * to 53x37 (rows not a multiple of the lanes: the last work-item of a row
- * holds 5 pixels), and pixel lists of 1024 and 1019 entries against the
- * whole frame and against the C reference. */
+ * holds 5 pixels) with planar, radial and inverse depth and sky pixels,
+ * and pixel lists of 1024 and 1019 entries against the whole frame and
+ * against the C reference. */
 static void test_light_fast_opencl(void **state)
 {
     (void)state;
@@ -1512,16 +1513,24 @@ static void test_light_fast_opencl(void **state)
         assert_int_equal(lfail, 0);
     }
     /* The frame cut to 53x37, the same camera (pixel (x, y) keeps its
-     * ray). */
-    {
+     * ray), with the depth read as planar, radial and inverse (1/z), and
+     * a NaN, a negative and an infinite depth among the pixels (sky). */
+    for (int kind = FP_DEPTH_PLANAR; kind <= FP_DEPTH_INVERSE; kind++) {
         int cw = 53, ch = 37;
         float *cd = malloc((size_t)cw * ch * sizeof *cd);
         for (int y = 0; y < ch; y++)
-            for (int x = 0; x < cw; x++)
-                cd[(size_t)y * cw + x] = sc.depth[(size_t)y * sc.w + x];
+            for (int x = 0; x < cw; x++) {
+                float z = sc.depth[(size_t)y * sc.w + x];
+                cd[(size_t)y * cw + x] =
+                    kind != FP_DEPTH_INVERSE ? z : isfinite(z) && z > 0 && z < 1e10f ? 1 / z : 0;
+            }
+        cd[3] = NAN;
+        cd[cw + 7] = -1;
+        cd[2 * cw + 40] = INFINITY;
         fp_view_t cv = sc.v;
         cv.width = cw;
         cv.height = ch;
+        cv.depth_kind = kind;
         assert_int_equal(fp_scatter_process(&sc.r.sd, &sc.r.fog, &cv, cd, ref), FP_OK);
         assert_int_equal(fp_scatter_process_cl(&scl, &icl, &sc.r.sd, &sc.r.fog, &cv, cd, got),
                          FP_OK);
@@ -1533,8 +1542,10 @@ static void test_light_fast_opencl(void **state)
             csmax = fmax(csmax, i % 4 < 3 ? ref[i] : 0);
             cfail += !(e <= fmax(2e-3 * fabs(ref[i]), 1e-4));
         }
-        print_message("OpenCL vs C, fast local lights, the frame cut to %dx%d: max |d| %.3g (S up "
-                      "to %.3g; tolerance 2e-3 relative or 1e-4)\n", cw, ch, cmax, csmax);
+        static const char *const kinds[] = { "planar", "radial", "inverse" };
+        print_message("OpenCL vs C, fast local lights, the frame cut to %dx%d, %s depth: max |d| "
+                      "%.3g (S up to %.3g; tolerance 2e-3 relative or 1e-4)\n", cw, ch,
+                      kinds[kind], cmax, csmax);
         assert_int_equal(cfail, 0);
         assert_true(csmax > 0.01);
         free(cd);
