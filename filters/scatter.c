@@ -802,12 +802,14 @@ int fp_scatter_cl_init(fp_cl_t *cl, fp_scatter_cl_t *s)
 {
     memset(s, 0, sizeof *s);
     s->cl = cl;
-    cl_program prog, lprog;
+    cl_program prog;
+    /* No -cl-fast-relaxed-math for scatter_lights: its lanes carry
+     * infinities (sky rays' length, fog without a top, empty spans), which
+     * that option lets the compiler assume away (it dropped the lights). */
     if (fp_cl_program(cl, "scatter", "-cl-std=CL1.2", &prog) ||
         fp_cl_kernel(prog, "scatter_fog", &s->kernel) ||
         fp_cl_kernel(prog, "sun_od_grid", &s->grid_kernel) ||
-        fp_cl_program(cl, "scatter", "-cl-std=CL1.2 -cl-fast-relaxed-math", &lprog) ||
-        fp_cl_kernel(lprog, "scatter_light", &s->light_kernel))
+        fp_cl_kernel(prog, "scatter_lights", &s->light_kernel))
         return FP_ERR;
     cl_int err;
     s->lt = clCreateBuffer(fp_cl_context(cl), CL_MEM_READ_ONLY, FP_LT_COUNT * sizeof(float), NULL,
@@ -881,30 +883,26 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
         fp_integrate_cl_launch(ic, k, v, pix, npix, out, "scatter_fog"))
         return FP_ERR;
     /* Local lights by the fast rule: scatter_fog left them out
-     * (FP_LIGHTS_APART); one launch each adds one to the fog layer. */
+     * (FP_LIGHTS_APART); one launch of scatter_lights adds them all to the
+     * fog layer, 16 pixels per work-item (FP_LN_LANES). */
     int nl = (int)d->lt[FP_LT_NLIGHTS];
     if (!(d->lt[FP_LT_LIGHT_QUAD] != 0 && fog->fp[FP_F_HAS_MAP] == 0 && nl > 0) ||
         (pix && npix == 0))
         return FP_OK;
+    const size_t lanes = 16;   /* FP_LN_LANES in kernels/scatter_lanes.h */
     cl_kernel lk = s->light_kernel;
     cl_int w = v->width, h = v->height, cnpix = pix ? (cl_int)npix : 0;
-    size_t local[2] = { 16, 8 };
-    size_t global[2] = { fp_cl_round_up((size_t)w, local[0]), fp_cl_round_up((size_t)h, local[1]) };
+    size_t global[2] = { ((size_t)w + lanes - 1) / lanes, (size_t)h };
     if (cnpix) {
-        local[0] = 128;
-        local[1] = 1;
-        global[0] = fp_cl_round_up(npix, local[0]);
+        global[0] = (npix + lanes - 1) / lanes;
         global[1] = 1;
     }
     if (FP_CL_ARG(lk, 0, ic->depth) || FP_CL_ARG(lk, 1, ic->fog) || FP_CL_ARG(lk, 2, ic->view) ||
         FP_CL_ARG(lk, 3, w) || FP_CL_ARG(lk, 4, h) || FP_CL_ARG(lk, 5, ic->params) ||
-        FP_CL_ARG(lk, 6, ic->pix) || FP_CL_ARG(lk, 7, cnpix) || FP_CL_ARG(lk, 8, s->lt))
+        FP_CL_ARG(lk, 6, ic->pix) || FP_CL_ARG(lk, 7, cnpix) || FP_CL_ARG(lk, 8, s->lt) ||
+        fp_cl_check(clEnqueueNDRangeKernel(q, lk, 2, NULL, global, NULL, 0, NULL, NULL),
+                    "scatter_lights"))
         return FP_ERR;
-    for (cl_int li = 0; li < nl; li++)
-        if (FP_CL_ARG(lk, 9, li) ||
-            fp_cl_check(clEnqueueNDRangeKernel(q, lk, 2, NULL, global, local, 0, NULL, NULL),
-                        "scatter_light"))
-            return FP_ERR;
     size_t nout = cnpix ? npix : (size_t)w * h;
     return fp_cl_check(clEnqueueReadBuffer(q, ic->fog, CL_TRUE, 0, nout * 4 * sizeof(float), out, 0,
                                            NULL, NULL),

@@ -23,9 +23,9 @@
 
 #include "shafts_core.h"
 
-/* The fast rule's functions are inlined whole into their kernel
- * (scatter_light): a call left in a kernel keeps PoCL's work-group loop
- * scalar. */
+/* The fast rule's functions (fp_l_*, fp_light_*): the C reference.  The
+ * OpenCL kernel scatter_lights runs the same rule on float16 lanes
+ * (scatter_lanes.h, the same float polynomials as fp_l_*). */
 #ifdef __OPENCL_VERSION__
 #define FP_LFN inline __attribute__((always_inline))
 #else
@@ -435,8 +435,8 @@ FP_LFN fp_real fp_light_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp
 
 /* One local light's in-scatter along the view ray o + t d, t in [0, len]
  * (fast rule, fog without a fogmap), over the ray's stretch through the
- * fog: S (3).  The OpenCL side runs it as its own kernel per light
- * (scatter_light), the C reference from fp_scatter_ray_core. */
+ * fog: S (3).  The C reference calls it from fp_scatter_ray_core; the
+ * OpenCL side runs it on lanes (fp_ln_light_ray, kernel scatter_lights). */
 FP_LFN void fp_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt, int k,
                         fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz,
                         fp_real len, fp_real *S)
