@@ -653,16 +653,35 @@ void fp_scatter_release(fp_scatter_data_t *d)
     d->grid_key.valid = 0;
 }
 
+/* One ray with the light data as they are (the self-shadow grid, when
+ * used, already filled: fp_scatter_pixels). */
+static double ray_at(const fp_scatter_data_t *d, const double *lt, const fp_integrate_data_t *fog,
+                     const fp_view_t *v, const float *view_packed, const float *depth,
+                     const double o[3], const double dir[3], double len, double offset,
+                     double S[3])
+{
+    const fp_fog_tables_t *t = fog->tables;
+    return fp_scatter_ray_core(fog->fp, TABLES(t), lt, d->smap ? d->smap : no_map,
+                               d->grid ? d->grid : no_map, view_packed, depth, v->width,
+                               v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, offset,
+                               S);
+}
+
+static int ensure_grid(const fp_scatter_data_t *d, const fp_integrate_data_t *fog);
+
 double fp_scatter_ray_at(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                          const fp_view_t *v, const float *view_packed, const float *depth,
                          const double o[3], const double dir[3], double len, double offset,
                          double S[3])
 {
-    const fp_fog_tables_t *t = fog->tables;
-    return fp_scatter_ray_core(fog->fp, TABLES(t), d->lt, d->smap ? d->smap : no_map,
-                               d->grid ? d->grid : no_map, view_packed, depth, v->width,
-                               v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, offset,
-                               S);
+    /* A ray on its own fills the self-shadow grid it looks up; when that
+     * fails (memory), its optical depth toward the sun is exact. */
+    if (ensure_grid(d, fog) == FP_OK)
+        return ray_at(d, d->lt, fog, v, view_packed, depth, o, dir, len, offset, S);
+    double lt[FP_LT_COUNT];
+    memcpy(lt, d->lt, sizeof lt);
+    lt[FP_LT_SELF] = FP_SELF_EXACT;
+    return ray_at(d, lt, fog, v, view_packed, depth, o, dir, len, offset, S);
 }
 
 double fp_scatter_ray(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
@@ -766,6 +785,18 @@ static int uses_grid(const fp_scatter_data_t *d)
     return (int)d->lt[FP_LT_SELF] == FP_SELF_MAP && d->lt[FP_LT_SUN_ON] != 0;
 }
 
+/* The self-shadow grid, when d uses one, filled for d and fog (the grid is
+ * a cache of d). */
+static int ensure_grid(const fp_scatter_data_t *d, const fp_integrate_data_t *fog)
+{
+    fp_scatter_data_t *dw = (fp_scatter_data_t *)d;
+    if (uses_grid(d) && !grid_current(&dw->grid_key, d, fog) && fill_grid(dw, fog)) {
+        dw->grid_key.valid = 0;
+        return FP_ERR;
+    }
+    return FP_OK;
+}
+
 int fp_scatter_process(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                        const fp_view_t *v, const float *depth, float *out)
 {
@@ -776,11 +807,8 @@ int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
                       const fp_view_t *v, const float *depth, const int *pix, size_t npix,
                       float *out)
 {
-    fp_scatter_data_t *dw = (fp_scatter_data_t *)d;   /* the grid is a cache of d */
-    if (uses_grid(d) && !grid_current(&dw->grid_key, d, fog) && fill_grid(dw, fog)) {
-        dw->grid_key.valid = 0;
+    if (ensure_grid(d, fog))
         return FP_ERR;
-    }
     float view[FP_VIEW_FLOATS];
     fp_view_pack(v, view);
     for (size_t k = 0; k < npix; k++) {
@@ -789,7 +817,7 @@ int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
         double dir[3], len, S[3], o[3];
         fp_view_ray(v, x, y, depth[i], dir, &len);
         fp_view_origin_at(v, x, y, o);
-        double tau = fp_scatter_ray_at(d, fog, v, view, depth, o, dir, len,
+        double tau = ray_at(d, d->lt, fog, v, view, depth, o, dir, len,
                                        fp_interleave_offset(d->lt, x, y), S);
         for (int c = 0; c < 3; c++)
             out[4 * k + c] = (float)S[c];

@@ -294,6 +294,35 @@ FP_FN int fp_ss_insert(fp_real *iv, int n, fp_real a, fp_real b)
     return n + shift;
 }
 
+/* Min-max pyramids (the shadow map's, the depth buffer's: filters/shafts.c):
+ * where level k (1..nl) begins, after the W x H cells of level 0. */
+FP_FN void fp_pyr_offsets(int W, int H, int nl, int *offs)
+{
+    offs[0] = 0;
+    for (int k = 1; k <= nl; k++)
+        offs[k] = k == 1 ? W * H
+                         : offs[k - 1] + 2 * ((W + (1 << (k - 1)) - 1) >> (k - 1)) *
+                                             ((H + (1 << (k - 1)) - 1) >> (k - 1));
+}
+
+/* A walk over a pyramid leaves the block (bi, bj) of sz cells along the
+ * line a + u e (in cells) at ue, through its x face or its y face: the
+ * axis crossed moves one block on, the other stays within the block's row
+ * or column. */
+FP_FN void fp_pyr_next(int *ix, int *iy, int bi, int bj, int sz, int xface, fp_real ax,
+                       fp_real ay, fp_real ex, fp_real ey, fp_real ue)
+{
+    if (xface) {
+        *ix = ex > 0 ? (bi + 1) * sz : bi * sz - 1;
+        int jv = (int)floor(ay + ue * ey);
+        *iy = jv < bj * sz ? bj * sz : jv > bj * sz + sz - 1 ? bj * sz + sz - 1 : jv;
+    } else {
+        *iy = ey > 0 ? (bj + 1) * sz : bj * sz - 1;
+        int iu = (int)floor(ax + ue * ex);
+        *ix = iu < bi * sz ? bi * sz : iu > bi * sz + sz - 1 ? bi * sz + sz - 1 : iu;
+    }
+}
+
 /* The shadowed t of X = o + t d + s l, t in [t0, t1] (t1 finite; d = 0 for
  * one point, t0 = t1 = 0), from pixel (ax, ay) (the projection of the ray,
  * in pixel units: pixel i spans [i, i + 1)) toward the sun: into iv,
@@ -345,11 +374,7 @@ FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *vie
         return 0;
     int W = width, H = height, NL = (int)lt[FP_LT_SM_LEVELS];
     int offs[FP_SM_MAX_LEVELS + 1];
-    offs[0] = 0;
-    for (int k = 1; k <= NL; k++)
-        offs[k] = k == 1 ? W * H
-                         : offs[k - 1] + 2 * ((W + (1 << (k - 1)) - 1) >> (k - 1)) *
-                                             ((H + (1 << (k - 1)) - 1) >> (k - 1));
+    fp_pyr_offsets(W, H, NL, offs);
     int ix = (int)fmin(fmax(floor(ax + u0 * ex), (fp_real)0), (fp_real)(W - 1));
     int iy = (int)fmin(fmax(floor(ay + u0 * ey), (fp_real)0), (fp_real)(H - 1));
     int lv = NL, n = 0;
@@ -384,17 +409,7 @@ FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *vie
         fp_real ue = fmin(uX, uY);
         if (ue >= u1)
             break;
-        /* Into the next cell: the axis crossed moves one block on, the
-         * other stays within the block's row or column. */
-        if (uX <= uY) {
-            ix = ex > 0 ? (bi + 1) * sz : bi * sz - 1;
-            int jv = (int)floor(ay + ue * ey);
-            iy = jv < bj * sz ? bj * sz : jv > bj * sz + sz - 1 ? bj * sz + sz - 1 : jv;
-        } else {
-            iy = ey > 0 ? (bj + 1) * sz : bj * sz - 1;
-            int iu = (int)floor(ax + ue * ex);
-            ix = iu < bi * sz ? bi * sz : iu > bi * sz + sz - 1 ? bi * sz + sz - 1 : iu;
-        }
+        fp_pyr_next(&ix, &iy, bi, bj, sz, uX <= uY, ax, ay, ex, ey, ue);
         if (ix < 0 || iy < 0 || ix >= W || iy >= H)
             break;
         lv = lv < NL ? lv + 1 : NL;

@@ -195,7 +195,8 @@ FP_FN void fp_sun_acc_init(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
     }
     /* Carried: from ta, where the camera's optical depth is computed once. */
     a->t = ta;
-    a->u = ta > 0 ? fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0) : 0;
+    a->u = !layered && ta > 0 ? fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0)
+                              : 0;
     a->C = 0;
     a->T = !layered && (int)lt[FP_LT_SELF] != FP_SELF_OFF
                ? fp_sun_tau(fp, lvi, lvf, coef, occ, lt, grid, ox + ta * dx, oy + ta * dy,
@@ -286,11 +287,7 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         int iy = (int)fmin(fmax(floor(V0 + t * dV), (fp_real)0), (fp_real)(H - 1));
         int L = NL;
         int offs[FP_SM_MAX_LEVELS + 1];
-        offs[0] = 0;
-        for (int k = 1; k <= NL; k++)
-            offs[k] = k == 1 ? W * H
-                             : offs[k - 1] + 2 * ((W + (1 << (k - 1)) - 1) >> (k - 1)) *
-                                                 ((H + (1 << (k - 1)) - 1) >> (k - 1));
+        fp_pyr_offsets(W, H, NL, offs);
         int guard = 16 * (W + H) + 64;
         while (t < mb && guard-- > 0) {
             int s = 1 << L;
@@ -332,17 +329,7 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
                 t = mb;
                 break;
             }
-            /* Into the next texel: the axis crossed moves one block on,
-             * the other stays within the block's row or column. */
-            if (tX <= tY) {
-                ix = dU > 0 ? (bi + 1) * s : bi * s - 1;
-                int jv = (int)floor(V0 + t1 * dV);
-                iy = jv < bj * s ? bj * s : jv > bj * s + s - 1 ? bj * s + s - 1 : jv;
-            } else {
-                iy = dV > 0 ? (bj + 1) * s : bj * s - 1;
-                int iu = (int)floor(U0 + t1 * dU);
-                ix = iu < bi * s ? bi * s : iu > bi * s + s - 1 ? bi * s + s - 1 : iu;
-            }
+            fp_pyr_next(&ix, &iy, bi, bj, s, tX <= tY, U0, V0, dU, dV, t1);
             iy = iy < 0 ? 0 : iy > H - 1 ? H - 1 : iy;
             ix = ix < 0 ? 0 : ix > W - 1 ? W - 1 : ix;
             t = t1;

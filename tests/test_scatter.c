@@ -2647,6 +2647,41 @@ static void test_shafts_screen(void **state)
     free(depth);
 }
 
+
+/* One ray through fp_scatter_ray_at before any frame: it fills the
+ * self-shadow grid it looks up (it read past an empty grid before), and
+ * gives the frame's values. */
+static void test_ray_fills_grid(void **state)
+{
+    (void)state;
+    static const char *const opts[] = { "density", "0.03", "sun", "-0.4,0.35,0.6",
+                                        "shadow-map", "-", "self-shadow", "map", NULL };
+    scene_t sc;
+    if (scene_open(&sc, opts, 1))
+        skip();
+    assert_int_equal((int)sc.r.sd.lt[FP_LT_SELF], FP_SELF_MAP);
+    assert_null(sc.r.sd.grid);
+    float view[FP_VIEW_FLOATS], px[4];
+    fp_view_pack(&sc.v, view);
+    double worst = 0;
+    for (int k = 0; k < 16; k++) {
+        int i = (k * 797) % (sc.w * sc.h);
+        double d[3], len, o[3], S[3];
+        fp_view_ray(&sc.v, i % sc.w, i / sc.w, sc.depth[i], d, &len);
+        fp_view_origin_at(&sc.v, i % sc.w, i / sc.w, o);
+        double tau = fp_scatter_ray_at(&sc.r.sd, &sc.r.fog, &sc.v, view, sc.depth, o, d, len, 0, S);
+        assert_non_null(sc.r.sd.grid);
+        assert_int_equal(fp_scatter_pixels(&sc.r.sd, &sc.r.fog, &sc.v, sc.depth, &i, 1, px), FP_OK);
+        for (int c = 0; c < 3; c++)
+            worst = fmax(worst, fabs(S[c] - px[c]) / fmax(fabs(px[c]), 1e-6));
+        worst = fmax(worst, fabs(tau - px[3]));
+    }
+    print_message("a ray on its own fills the self-shadow grid: against the frame's pixels max "
+                  "relative %.3g (float rounding)\n", worst);
+    assert_true(worst <= 1e-6);
+    scene_close(&sc);
+}
+
 int main(int argc, char **argv)
 {
     test_argv0 = argv[0];
@@ -2679,6 +2714,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_shafts_converge),
         cmocka_unit_test(test_shafts_opencl),
         cmocka_unit_test(test_shafts_screen),
+        cmocka_unit_test(test_ray_fills_grid),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     remove_scene();
