@@ -205,7 +205,6 @@ FP_FN void fp_sun_acc_init(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
     a->hmax = h0;
     a->h = h0;
     a->hmin = h0 * (fp_real)(1.0 / 256);
-
 }
 
 /* Start the runs at ta (lit). */
