@@ -17,6 +17,8 @@
 #include "integrate.h"
 #include "options.h"
 #include "scatter.h"
+
+#include "bench_util.h"
 #include "buffers.h"
 
 #include "fog_core.h"
@@ -42,13 +44,6 @@ typedef struct bench_t {
 } bench_t;
 
 /* A configuration: options as "name=value" strings. */
-typedef struct look_t {
-    fp_params_t p;
-    fp_integrate_data_t fog;
-    fp_fogmap_stage_t fm;
-    fp_scatter_data_t light;
-} look_t;
-
 static int look_setup(bench_t *b, look_t *l, const char *const *opts)
 {
     memset(l, 0, sizeof *l);
@@ -60,20 +55,7 @@ static int look_setup(bench_t *b, look_t *l, const char *const *opts)
         if (fp_options_apply(&l->p, name, eq + 1, "bench"))
             return FP_ERR;
     }
-    int active;
-    if (fp_integrate_commit(&l->p, &l->fog) || fp_scatter_commit(&l->p, &l->light) ||
-        fp_fogmap_commit(&l->p, b->cl, &l->fm, &l->fog, &active) ||
-        fp_fogmap_frame(&l->p, b->cl, &l->fm, 1, &b->view, &l->fog) ||
-        fp_scatter_frame(&l->p, &l->light, &l->fog, &b->view, b->depth, 1))
-        return FP_ERR;
-    return FP_OK;
-}
-
-static void look_release(look_t *l)
-{
-    fp_scatter_release(&l->light);
-    fp_fogmap_release(&l->fm);
-    fp_options_free(&l->p);
+    return look_commit(l, b->cl, &b->view, b->depth);
 }
 
 /* OpenCL fog layer into b->got: best of `reps` runs, ms.  Each run fills

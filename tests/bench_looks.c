@@ -37,6 +37,8 @@
 #include "options.h"
 #include "scatter.h"
 
+#include "bench_util.h"
+
 /* The shared ray code in double (fp_phase, the light layout). */
 #include "fog_core.h"
 #include "light_core.h"
@@ -207,13 +209,6 @@ static double marginal_ns(set_t *s, const char *const *opts, const char *const *
  * look's options with every fast path turned off) on every stride-th
  * pixel of frame 1 of its set: max |dtau| and max |dS| relative to the
  * reference's largest S. */
-typedef struct look_run_t {
-    fp_params_t p;
-    fp_integrate_data_t fog;
-    fp_scatter_data_t light;
-    fp_fogmap_stage_t fm;
-} look_run_t;
-
 static fp_cl_t *cl;
 static fp_integrate_cl_t icl;
 static fp_scatter_cl_t scl;
@@ -272,31 +267,18 @@ static void frame1_close(frame1_t *f)
 }
 
 static int look_open(const set_t *s, const frame1_t *f, const char *const *opts,
-                     const char *const *extra, look_run_t *l)
+                     const char *const *extra, look_t *l)
 {
     char *argv[MAX_ARGS], buf[32768];
     memset(l, 0, sizeof *l);
     fp_options_defaults(&l->p);
     int argc = build_argv(argv, buf, sizeof buf, s, 1, opts, extra, NULL);
-    int active;
-    if (argc < 0 || fp_options_parse(argc, argv, &l->p) || fp_integrate_commit(&l->p, &l->fog) ||
-        fp_scatter_commit(&l->p, &l->light) ||
-        fp_fogmap_commit(&l->p, cl, &l->fm, &l->fog, &active) ||
-        fp_fogmap_frame(&l->p, cl, &l->fm, 1, &f->view, &l->fog) ||
-        ((l->light.active) &&
-         fp_scatter_frame(&l->p, &l->light, &l->fog, &f->view, f->depth, 1)))
+    if (argc < 0 || fp_options_parse(argc, argv, &l->p))
         return FP_ERR;
-    return FP_OK;
+    return look_commit(l, cl, &f->view, f->depth);
 }
 
-static void look_close(look_run_t *l)
-{
-    fp_scatter_release(&l->light);
-    fp_fogmap_release(&l->fm);
-    fp_options_free(&l->p);
-}
-
-static int look_layer(look_run_t *l, const frame1_t *f, int use_cl, float *out)
+static int look_layer(look_t *l, const frame1_t *f, int use_cl, float *out)
 {
     if (l->light.active)
         return use_cl ? fp_scatter_pixels_cl(&scl, &icl, &l->light, &l->fog, &f->view, f->depth,
@@ -331,17 +313,17 @@ static err_t compare(const float *a, const float *ref, size_t n)
 static int look_error(const set_t *s, const frame1_t *f, const char *const *opts,
                       const char *const *extra, err_t *e, float *ref_out)
 {
-    look_run_t l, r;
+    look_t l, r;
     size_t n = f->npix;
     float *got = malloc(n * 4 * sizeof *got), *ref = malloc(n * 4 * sizeof *ref);
     int rc = !got || !ref ? fp_error("out of memory") : FP_OK;
     if (rc == FP_OK && (rc = look_open(s, f, opts, extra, &l)) == FP_OK) {
         rc = look_layer(&l, f, 1, got);
-        look_close(&l);
+        look_release(&l);
     }
     if (rc == FP_OK && (rc = look_open(s, f, opts, exact_opts, &r)) == FP_OK) {
         rc = look_layer(&r, f, 0, ref);
-        look_close(&r);
+        look_release(&r);
     }
     if (rc == FP_OK) {
         *e = compare(got, ref, n);
@@ -386,7 +368,7 @@ static void shafts_section(const char *scratch_dir)
                                  "--shadow-map", "{dir}/shadow.####.exr", NULL };
     double ns = marginal_ns(&sh, look, NULL);
     frame1_t f;
-    look_run_t l;
+    look_t l;
     static const char *const dark[] = { "--fog-color", "0,0,0", NULL };
     double max_c = NAN, max_cl = NAN, mean_c = 0;
     size_t counted = 0;
@@ -427,7 +409,7 @@ static void shafts_section(const char *scratch_dir)
         free(got);
         free(ref);
         free(want);
-        look_close(&l);
+        look_release(&l);
     }
     frame1_close(&f);
     char nss[64];

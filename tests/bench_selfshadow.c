@@ -28,6 +28,8 @@
 #include "options.h"
 #include "scatter.h"
 
+#include "bench_util.h"
+
 #include "fog_core.h"
 #include "light_core.h"
 #include "scatter_core.h"
@@ -50,13 +52,6 @@ typedef struct frame_t {
     char shadow[4200], fogmap[4200];
 } frame_t;
 
-typedef struct look_t {
-    fp_params_t p;
-    fp_integrate_data_t fog;
-    fp_fogmap_stage_t fm;
-    fp_scatter_data_t light;
-} look_t;
-
 static fp_cl_t *cl;
 static fp_integrate_cl_t icl;
 static fp_scatter_cl_t scl;
@@ -78,20 +73,7 @@ static int look_open(const frame_t *f, look_t *l, const char *self, const char *
         fp_options_apply(&l->p, "self-shadow", self, "bench") ||
         (grid && fp_options_apply(&l->p, "self-shadow-grid", grid, "bench")))
         return FP_ERR;
-    int active;
-    if (fp_integrate_commit(&l->p, &l->fog) || fp_scatter_commit(&l->p, &l->light) ||
-        fp_fogmap_commit(&l->p, cl, &l->fm, &l->fog, &active) ||
-        fp_fogmap_frame(&l->p, cl, &l->fm, 1, &f->view, &l->fog) ||
-        fp_scatter_frame(&l->p, &l->light, &l->fog, &f->view, f->depth, 1))
-        return FP_ERR;
-    return FP_OK;
-}
-
-static void look_close(look_t *l)
-{
-    fp_scatter_release(&l->light);
-    fp_fogmap_release(&l->fm);
-    fp_options_free(&l->p);
+    return look_commit(l, cl, &f->view, f->depth);
 }
 
 /* CPU seconds of the OpenCL fog layer (the grid filled again when
@@ -280,10 +262,10 @@ int main(int argc, char **argv)
                 }
                 printf(" | | | | | | |\n");
             }
-            look_close(&l);
+            look_release(&l);
         }
         if (have_exact)
-            look_close(&exact);
+            look_release(&exact);
         free(out);
         fp_frame_free(f.frame);
     }

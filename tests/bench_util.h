@@ -1,0 +1,35 @@
+/* fogpipe benchmarks: what the bench programs share (bench_light,
+ * bench_looks, bench_selfshadow).  Header-only; include after the
+ * fogpipe headers (fogmap.h, integrate.h, options.h, scatter.h). */
+#ifndef FP_BENCH_UTIL_H
+#define FP_BENCH_UTIL_H
+
+/* A look: the options and the stages they commit. */
+typedef struct look_t {
+    fp_params_t p;
+    fp_integrate_data_t fog;
+    fp_fogmap_stage_t fm;
+    fp_scatter_data_t light;
+} look_t;
+
+/* Commit l->p (already filled) for frame 1 seen through view with its
+ * depth: the integrate and scatter stages, the fogmap (on cl when given). */
+static inline int look_commit(look_t *l, fp_cl_t *cl, const fp_view_t *view, const float *depth)
+{
+    int active;
+    if (fp_integrate_commit(&l->p, &l->fog) || fp_scatter_commit(&l->p, &l->light) ||
+        fp_fogmap_commit(&l->p, cl, &l->fm, &l->fog, &active) ||
+        fp_fogmap_frame(&l->p, cl, &l->fm, 1, view, &l->fog) ||
+        fp_scatter_frame(&l->p, &l->light, &l->fog, view, depth, 1))
+        return FP_ERR;
+    return FP_OK;
+}
+
+static inline void look_release(look_t *l)
+{
+    fp_scatter_release(&l->light);
+    fp_fogmap_release(&l->fm);
+    fp_options_free(&l->p);
+}
+
+#endif
