@@ -49,6 +49,16 @@ const char *fp_exr_lib_text(fp_exr_io_t *io, exr_result_t rv, char *out,
     return out;
 }
 
+const char *fp_exr_fail_text(fp_exr_io_t *io, const char *why, exr_result_t rv, char *out,
+                             size_t n)
+{
+    if (!(why && why[0]))
+        return fp_exr_lib_text(io, rv, out, n);
+    snprintf(out, n, "%s", why);
+    io->msg[0] = '\0';
+    return out;
+}
+
 int64_t fp_exr_mem_read(exr_const_context_t ctxt, void *userdata, void *buffer,
                         uint64_t sz, uint64_t offset,
                         exr_stream_error_func_ptr_t error_cb)

@@ -101,6 +101,10 @@ void fp_exr_lib_error_handler(exr_const_context_t ctxt, exr_result_t code,
 /* The library's text for a failure: what its handler said, else the
  * generic text of the code.  Clears io->msg for the next call. */
 const char *fp_exr_lib_text(fp_exr_io_t *io, exr_result_t rv, char *out, size_t n);
+/* The reason a chunk failed: `why` (a worker's message) when there is one,
+ * else the library's text; clears io->msg either way. */
+const char *fp_exr_fail_text(fp_exr_io_t *io, const char *why, exr_result_t rv, char *out,
+                             size_t n);
 /* Read callbacks serving io->rd, and the write callback filling io->wr
  * (pwrite semantics). */
 int64_t fp_exr_mem_read(exr_const_context_t ctxt, void *userdata, void *buffer,

@@ -669,11 +669,7 @@ static int decode_part(fp_frame_t *f, int p, const char *where, long frame)
     rc = FP_OK;
     goto done;
 fail:
-    if (why && why[0])
-        snprintf(lt, sizeof lt, "%s", why);
-    else
-        fp_exr_lib_text(&f->io, rv, lt, sizeof lt);
-    f->io.msg[0] = '\0';
+    fp_exr_fail_text(&f->io, why, rv, lt, sizeof lt);
     fp_error("%s: frame %ld: part %d: cannot decode pixels at %d,%d (%s%s)",
              where, frame, p, at_x, at_y, lt,
              rv == EXR_ERR_FEATURE_NOT_IMPLEMENTED

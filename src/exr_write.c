@@ -370,11 +370,7 @@ static int encode_part(exr_context_t o, int idx, const out_part_t *op,
     rc = FP_OK;
     goto done;
 fail:
-    if (why && why[0])
-        snprintf(lt, sizeof lt, "%s", why);
-    else
-        fp_exr_lib_text(io, rv, lt, sizeof lt);
-    io->msg[0] = '\0';
+    fp_exr_fail_text(io, why, rv, lt, sizeof lt);
     fp_error("%s: frame %ld: cannot encode part %d at line %lld (%s%s)", where,
              frame, idx, (long long) y, lt,
              rv == EXR_ERR_FEATURE_NOT_IMPLEMENTED
