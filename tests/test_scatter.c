@@ -459,6 +459,22 @@ static double sun05(double beta, double I, double Dsv, double g, double Dvp)
     return A0 * adapt(sun05_f, &c, cut, 2, 16, 1e-15);
 }
 
+/* Breakpoints for quadrature along a ray near a light: distances from
+ * the closest point tc growing geometrically from h 2^-8 (h the light's
+ * distance from the ray), within (0, end), appended to cut[n..]; the new
+ * count (76 at most added). */
+static int light_cuts(double tc, double h, double end, double *cut, int n)
+{
+    for (int k = -8; k < 30; k++) {
+        double s = h * ldexp(1, k);
+        if (tc - s > 0 && tc - s < end)
+            cut[n++] = tc - s;
+        if (tc + s > 0 && tc + s < end)
+            cut[n++] = tc + s;
+    }
+    return n;
+}
+
 /* Brute force of the single-scattering integral of one point light in
  * homogeneous fog (sigma), any phase: adaptive quadrature in t with
  * breakpoints geometrically spaced about the closest point. */
@@ -485,13 +501,7 @@ static double light_bf(light_bf_t *c, double len)
     int n = 0;
     cut[n++] = 0;
     cut[n++] = end;
-    for (int k = -8; k < 30; k++) {
-        double s = h * ldexp(1, k);
-        if (tc - s > 0 && tc - s < end)
-            cut[n++] = tc - s;
-        if (tc + s > 0 && tc + s < end)
-            cut[n++] = tc + s;
-    }
+    n = light_cuts(tc, h, end, cut, n);
     if (tc > 0 && tc < end)
         cut[n++] = tc;
     qsort(cut, n, sizeof *cut, cmp_d);
@@ -1379,13 +1389,7 @@ static double light_gen(const rig_t *r, const double o[3], const double d[3], do
     int n = 0;
     cut[n++] = 0;
     cut[n++] = end;
-    for (int k = -8; k < 30; k++) {
-        double s = h * ldexp(1, k);
-        if (tc - s > 0 && tc - s < end)
-            cut[n++] = tc - s;
-        if (tc + s > 0 && tc + s < end)
-            cut[n++] = tc + s;
-    }
+    n = light_cuts(tc, h, end, cut, n);
     double ys[2] = { fp[FP_F_Y0], fp[FP_F_TOP] };
     for (int i = 0; i < 2; i++) {
         double t = (ys[i] - o[1]) / d[1];
