@@ -155,20 +155,24 @@ exr_result_t fp_zip_compress(exr_encode_pipeline_t *enc)
             return EXR_ERR_OUT_OF_MEMORY;
         }
     }
-    /* The compressed buffer holds the chunk's bytes as they are when
+    /* Room for libdeflate's worst case (given less, it gives up a few
+     * bytes short of the end), and for the chunk's bytes as they are when
      * deflate does not make them smaller; the pipeline frees it with its
      * free_fn (set with alloc_fn by the caller). */
-    if (!enc->compressed_buffer || enc->compressed_alloc_size < n) {
+    size_t cap = libdeflate_zlib_compress_bound(z->comp, n);
+    if (cap < n)
+        cap = n;
+    if (!enc->compressed_buffer || enc->compressed_alloc_size < cap) {
         if (enc->compressed_buffer && enc->compressed_alloc_size > 0)
             enc->free_fn(EXR_TRANSCODE_BUFFER_COMPRESSED, enc->compressed_buffer);
         enc->compressed_alloc_size = 0;
-        enc->compressed_buffer = enc->alloc_fn(EXR_TRANSCODE_BUFFER_COMPRESSED, n);
+        enc->compressed_buffer = enc->alloc_fn(EXR_TRANSCODE_BUFFER_COMPRESSED, cap);
         if (!enc->compressed_buffer) {
             fp_exr_lib_error_handler(enc->context, EXR_ERR_OUT_OF_MEMORY,
                                      "out of memory for a compressed chunk");
             return EXR_ERR_OUT_OF_MEMORY;
         }
-        enc->compressed_alloc_size = n;
+        enc->compressed_alloc_size = cap;
     }
     if (grow_scratch(z, n) != 0) {
         fp_exr_lib_error_handler(enc->context, EXR_ERR_OUT_OF_MEMORY,
@@ -180,12 +184,9 @@ exr_result_t fp_zip_compress(exr_encode_pipeline_t *enc)
      * as it is: readers take a chunk of the packed size as uncompressed.
      * (OpenEXR 3.1.5 keeps a compressed chunk of exactly the packed size,
      * which no reader can then tell from raw bytes; OpenEXR's C++ library
-     * and later C cores store those raw, as here.)  An output space one
-     * byte short of the packed size makes libdeflate say 0 for both. */
-    size_t c = n > 1 ? libdeflate_zlib_compress(z->comp, z->scratch, n, enc->compressed_buffer,
-                                                n - 1)
-                     : 0;
-    if (c == 0) {
+     * and later C cores store those raw, as here.) */
+    size_t c = libdeflate_zlib_compress(z->comp, z->scratch, n, enc->compressed_buffer, cap);
+    if (c == 0 || c >= n) {
         memcpy(enc->compressed_buffer, enc->packed_buffer, n);
         c = n;
     }
