@@ -151,6 +151,11 @@ typedef struct fp_zip_t {
 
 /* Whether a part's compression is one this codec handles (ZIP, ZIPS). */
 int fp_zip_is_zip(int compression);
+/* Whether ZIP / ZIPS chunks go through this codec (1, the default) or
+ * through OpenEXR's own zlib routines (0), process-wide: for
+ * tests/bench_zip's before-and-after figures, taken in one program. */
+void fp_zip_set_enabled(int on);
+int fp_zip_enabled(void);
 void fp_zip_release(fp_zip_t *z);
 /* Install the codec on a pipeline right after its default routines are
  * chosen and before it first runs (the encoder's buffers then come from

@@ -506,7 +506,7 @@ static exr_result_t decode_chunk(fp_frame_t *f, int p, exr_decode_pipeline_t *de
         rv = exr_get_compression(f->ctx, p, &comp);
         if (rv != EXR_ERR_SUCCESS)
             return rv;
-        if (dec->decompress_fn && fp_zip_is_zip(comp))
+        if (dec->decompress_fn && fp_zip_enabled() && fp_zip_is_zip(comp))
             fp_zip_use_decoder(dec, zip); /* libdeflate for OpenEXR's zlib */
         *inited = 1;
     }

@@ -280,7 +280,7 @@ static exr_result_t encode_chunk(enc_job_t *j, exr_encode_pipeline_t *enc,
         rv = exr_get_compression(j->o, j->idx, &comp);
         if (rv != EXR_ERR_SUCCESS)
             return rv;
-        if (fp_zip_is_zip(comp))
+        if (fp_zip_enabled() && fp_zip_is_zip(comp))
             fp_zip_use_encoder(enc, zip); /* libdeflate for OpenEXR's zlib */
         *inited = 1;
     }

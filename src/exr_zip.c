@@ -12,6 +12,7 @@
 #include <libdeflate.h>
 
 #include <inttypes.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,6 +24,18 @@
 /* zlib's Z_DEFAULT_COMPRESSION (-1), what OpenEXR uses unless the part's
  * zip level is set, is level 6; libdeflate's levels 0-9 match zlib's. */
 #define FP_ZIP_DEFAULT_LEVEL 6
+
+static atomic_int zip_enabled = 1;
+
+void fp_zip_set_enabled(int on)
+{
+    atomic_store(&zip_enabled, on != 0);
+}
+
+int fp_zip_enabled(void)
+{
+    return atomic_load(&zip_enabled);
+}
 
 int fp_zip_is_zip(int compression)
 {
