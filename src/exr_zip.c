@@ -117,13 +117,13 @@ void fp_zip_reconstruct(uint8_t *out, uint8_t *s, size_t n)
         d = _mm_add_epi8(d, _mm_slli_si128(d, 2));
         d = _mm_add_epi8(d, _mm_slli_si128(d, 4));
         d = _mm_add_epi8(d, _mm_slli_si128(d, 8));
-        d = _mm_add_epi8(d, vp);
-        _mm_storeu_si128((__m128i *) (s + i), d);
-        /* the block's last byte in every lane (SSE2 has no byte shuffle) */
+        _mm_storeu_si128((__m128i *) (s + i), _mm_add_epi8(d, vp));
+        /* the block's own sum in every lane (SSE2 has no byte shuffle),
+         * added to the running one: one add from block to block */
         __m128i x = _mm_srli_si128(d, 15);
         x = _mm_unpacklo_epi8(x, x);
         x = _mm_shufflelo_epi16(x, 0);
-        vp = _mm_shuffle_epi32(x, 0);
+        vp = _mm_add_epi8(vp, _mm_shuffle_epi32(x, 0));
     }
     prev = (uint8_t) _mm_cvtsi128_si32(vp);
 #endif
