@@ -20,7 +20,7 @@
 #include <string.h>
 #include <sys/resource.h>
 
-#define REPS 3
+#define REPS 5
 
 static double cpu_now(void)
 {
