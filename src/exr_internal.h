@@ -7,6 +7,7 @@
  *                 chunks decoded, colour and depth as floats, every other
  *                 channel kept as bytes;
  *   exr_write.c   encoding a frame to memory and writing files atomically;
+ *   exr_zip.c     the ZIP / ZIPS codec of the chunk workers (libdeflate);
  *   exr_stream.c  stream framing: one EXR file at a time from a pipe. */
 #ifndef FP_EXR_INTERNAL_H
 #define FP_EXR_INTERNAL_H
@@ -134,6 +135,40 @@ typedef struct fp_exr_worker_t {
  * earliest chunk (so the error does not depend on the thread count), or
  * NULL. */
 fp_exr_worker_t *fp_exr_run_workers(void *(*fn)(void *), void *job, fp_exr_worker_t *wk, int n);
+
+/* ------------------------------------------------------------ ZIP codec
+ * (exr_zip.c) */
+
+/* One chunk worker's deflate state: libdeflate's compressor and
+ * decompressor are not thread-safe, so each worker has its own, made on
+ * first use and freed by fp_zip_release.  Starts zeroed. */
+typedef struct fp_zip_t {
+    struct libdeflate_compressor *comp;
+    struct libdeflate_decompressor *dec;
+    uint8_t *scratch;
+    size_t scratch_cap;
+} fp_zip_t;
+
+/* Whether a part's compression is one this codec handles (ZIP, ZIPS). */
+int fp_zip_is_zip(int compression);
+/* Whether ZIP / ZIPS chunks go through this codec (1, the default) or
+ * through OpenEXR's own zlib routines (0), process-wide: for
+ * tests/bench_zip's before-and-after figures, taken in one program. */
+void fp_zip_set_enabled(int on);
+int fp_zip_enabled(void);
+void fp_zip_release(fp_zip_t *z);
+/* Install the codec on a pipeline right after its default routines are
+ * chosen and before it first runs (the encoder's buffers then come from
+ * malloc through the pipeline's alloc_fn / free_fn); z must outlive it. */
+void fp_zip_use_encoder(exr_encode_pipeline_t *enc, fp_zip_t *z);
+void fp_zip_use_decoder(exr_decode_pipeline_t *dec, fp_zip_t *z);
+/* The codec's compress_fn and decompress_fn (user data: an fp_zip_t). */
+exr_result_t fp_zip_compress(exr_encode_pipeline_t *enc);
+exr_result_t fp_zip_decompress(exr_decode_pipeline_t *dec);
+/* OpenEXR's ZIP pre-processing of n bytes, raw -> out (both n bytes,
+ * apart), and its inverse: s (modified) -> out. */
+void fp_zip_deconstruct(uint8_t *out, const uint8_t *raw, size_t n);
+void fp_zip_reconstruct(uint8_t *out, uint8_t *s, size_t n);
 
 /* ------------------------------------------------------------ small helpers */
 

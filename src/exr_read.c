@@ -454,7 +454,7 @@ static int alloc_planes(fp_frame_t *f, const char *where, long frame)
 
 /* Decode one chunk whose first pixel is (x0, y0), absolute coordinates. */
 static exr_result_t decode_chunk(fp_frame_t *f, int p, exr_decode_pipeline_t *dec,
-                                 int *inited, const exr_chunk_info_t *ci,
+                                 fp_zip_t *zip, int *inited, const exr_chunk_info_t *ci,
                                  int x0, int y0)
 {
     fp_part_t *pt = &f->parts[p];
@@ -500,6 +500,14 @@ static exr_result_t decode_chunk(fp_frame_t *f, int p, exr_decode_pipeline_t *de
         rv = exr_decoding_choose_default_routines(f->ctx, p, dec);
         if (rv != EXR_ERR_SUCCESS)
             return rv;
+        /* the file's compression (a DWA input's parts were rewritten, so
+         * not pt->compression) */
+        exr_compression_t comp = EXR_COMPRESSION_NONE;
+        rv = exr_get_compression(f->ctx, p, &comp);
+        if (rv != EXR_ERR_SUCCESS)
+            return rv;
+        if (dec->decompress_fn && fp_zip_enabled() && fp_zip_is_zip(comp))
+            fp_zip_use_decoder(dec, zip); /* libdeflate for OpenEXR's zlib */
         *inited = 1;
     }
     return exr_decoding_run(f->ctx, p, dec);
@@ -561,6 +569,7 @@ static void *dec_work(void *arg)
     fp_exr_worker_t *w = arg;
     dec_job_t *j = w->job;
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    fp_zip_t zip = { 0 };
     int inited = 0;
     char *saved = fp_exr_tl_msg;
     fp_exr_tl_msg = w->msg;
@@ -568,7 +577,7 @@ static void *dec_work(void *arg)
         int64_t k = atomic_fetch_add(&j->next, 1);
         if (k >= j->n || atomic_load(&j->stop))
             break;
-        exr_result_t rv = decode_chunk(j->f, j->p, &dec, &inited, &j->ci[k],
+        exr_result_t rv = decode_chunk(j->f, j->p, &dec, &zip, &inited, &j->ci[k],
                                        j->x0[k], j->y0[k]);
         if (rv == EXR_ERR_SUCCESS)
             to_float_rect(j->f, j->p, &j->ci[k], j->x0[k], j->y0[k]);
@@ -580,6 +589,7 @@ static void *dec_work(void *arg)
         }
     }
     exr_decoding_destroy(j->f->ctx, &dec);
+    fp_zip_release(&zip);
     fp_exr_tl_msg = saved;
     return NULL;
 }

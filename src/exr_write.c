@@ -243,7 +243,7 @@ typedef struct enc_job_t {
 } enc_job_t;
 
 static exr_result_t encode_chunk(enc_job_t *j, exr_encode_pipeline_t *enc,
-                                 int *inited, int *map, int64_t k)
+                                 fp_zip_t *zip, int *inited, int *map, int64_t k)
 {
     const out_part_t *op = j->op;
     const exr_chunk_info_t *ci = &j->ci[k];
@@ -276,6 +276,12 @@ static exr_result_t encode_chunk(enc_job_t *j, exr_encode_pipeline_t *enc,
         /* kept here and written in order by the caller */
         enc->yield_until_ready_fn = NULL;
         enc->write_fn = NULL;
+        exr_compression_t comp = EXR_COMPRESSION_NONE;
+        rv = exr_get_compression(j->o, j->idx, &comp);
+        if (rv != EXR_ERR_SUCCESS)
+            return rv;
+        if (fp_zip_enabled() && fp_zip_is_zip(comp))
+            fp_zip_use_encoder(enc, zip); /* libdeflate for OpenEXR's zlib */
         *inited = 1;
     }
     rv = exr_encoding_run(j->o, j->idx, enc);
@@ -294,6 +300,7 @@ static void *enc_work(void *arg)
     fp_exr_worker_t *w = arg;
     enc_job_t *j = w->job;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    fp_zip_t zip = { 0 };
     int inited = 0;
     int *map = malloc((size_t) (j->op->num > 0 ? j->op->num : 1) * sizeof *map);
     char *saved = fp_exr_tl_msg;
@@ -302,7 +309,7 @@ static void *enc_work(void *arg)
         int64_t k = atomic_fetch_add(&j->next, 1);
         if (k >= j->n || atomic_load(&j->stop))
             break;
-        exr_result_t rv = map ? encode_chunk(j, &enc, &inited, map, k)
+        exr_result_t rv = map ? encode_chunk(j, &enc, &zip, &inited, map, k)
                               : EXR_ERR_OUT_OF_MEMORY;
         if (rv != EXR_ERR_SUCCESS) {
             w->fail = k;
@@ -313,6 +320,7 @@ static void *enc_work(void *arg)
     }
     if (inited || enc.channels)
         exr_encoding_destroy(j->o, &enc);
+    fp_zip_release(&zip);
     free(map);
     fp_exr_tl_msg = saved;
     return NULL;

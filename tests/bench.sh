@@ -99,6 +99,12 @@ trap 'rm -rf "$tmp"' EXIT
     awk '{ for (i = 1; i < NF; i += 2) t[$i] = $(i + 1) / 8
            printf "| %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", t["read"], t["decode"], t["fog"],
                   t["composite"], t["encode"], t["write"] }'
+  # The EXR ZIP codec (src/exr_zip.c) against OpenEXR's zlib, on the frames
+  # of this section as read and as fogged.
+  if [ -n "${FP_BENCH_ZIP:-}" ]; then
+    echo
+    "$FP_BENCH_ZIP" "$tmp"/hd/scene.000?.exr -- "$tmp"/fog_off/out.000?.exr
+  fi
   # Animation (filters/animate.c): the quality of wind (the change between
   # frames is the motion itself) and the per-frame decomposition's time.
   oiio=${OIIOTOOL:-oiiotool}

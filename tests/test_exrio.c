@@ -2135,14 +2135,13 @@ static void test_long_names(void **state)
         spit_file(sout, enc, enc_size);
         free(enc);
         assert_long_names(sout, "stream output");
-        size_t fn;
+        size_t fn, sn;
         uint8_t *fb = slurp_file(out, &fn);
-        uint8_t *sb = slurp_file(sout, &n);
-        assert_int_equal(fn, n);
-        assert_memory_equal(fb, sb, n); /* the same bytes as file mode */
+        uint8_t *sb = slurp_file(sout, &sn);
+        assert_int_equal(fn, sn);
+        assert_memory_equal(fb, sb, sn); /* the same bytes as file mode */
         free(fb);
         free(sb);
-        n = fn;
     }
     fclose(sin);
     free(two);
