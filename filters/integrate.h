@@ -79,6 +79,8 @@ typedef struct fp_integrate_cl_t {
     size_t capacity;      /* pixels the buffers hold */
     size_t pix_capacity;  /* entries the pixel list buffer holds */
     unsigned long uploaded;               /* serial of the tables on the device (0: none) */
+    size_t host_align;    /* the device works in the host's memory: the alignment
+                           * at which it takes a host buffer as is (0: it does not) */
 } fp_integrate_cl_t;
 
 int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s);

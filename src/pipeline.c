@@ -150,7 +150,11 @@ static float *fog_get(run_t *r, size_t n)
             break;
         }
     pthread_mutex_unlock(&r->pool_mu);
-    return buf ? buf : malloc(n * 4 * sizeof(float));
+    /* Page-aligned: a device in the host's memory writes the layer into it
+     * without a copy (filters/integrate.c). */
+    if (!buf && posix_memalign((void **)&buf, 4096, n * 4 * sizeof(float)))
+        buf = NULL;
+    return buf;
 }
 
 static void fog_put(run_t *r, float *buf, size_t n)
