@@ -483,6 +483,100 @@ static void test_walk_matches_levels(void **state)
                   "%.2e (bound 1e-6)\n", worst);
 }
 
+/* The resumable walk (fp_fog_cur_t): the optical depth over increasing
+ * cut points of one ray, one cursor, equals fp_fog_od over each stretch
+ * from its start (what the callers computed before) to 1e-12 relative, for
+ * every basis and wrap, a fog box, a top, the haze, infinite rays, and the
+ * fallbacks (lod, early termination, march); relative to the stretch's
+ * optical depth, or to 1e-3 of the one it would have at F = 1 where it has
+ * next to no fog. */
+static void test_cursor_matches_fog_od(void **state)
+{
+    (void)state;
+    double worst = 0;
+    int stretches = 0;
+    for (int degree = 0; degree <= 3; degree++)
+        for (int wrap = 0; wrap <= 2; wrap++) {
+            setup_t st;
+            int w = wrap == FP_WRAP_REPEAT ? 32 : 27, h = wrap == FP_WRAP_REPEAT ? 16 : 19;
+            make(&st, w, h, degree, wrap, 3, degree == 2 ? 14.0 : INFINITY, degree == 3);
+            for (int variant = 0; variant < 6; variant++) {
+                fp_integrate_data_t dd = st.d;
+                if (variant == 1) {
+                    /* A moved, turned fog in a box, with haze. */
+                    const double box[6] = { -5, -1, -5, 20, 8, 15 };
+                    for (int i = 0; i < 6; i++)
+                        dd.fp[FP_F_BOX + i] = box[i];
+                    dd.fp[FP_F_OFF] = 1.5;
+                    dd.fp[FP_F_COS] = cos(0.3);
+                    dd.fp[FP_F_SIN] = sin(0.3);
+                    dd.fp[FP_F_HAZE] = 0.02;
+                    dd.fp[FP_F_HAZE + 1] = 0.5;
+                    dd.fp[FP_F_HAZE + 2] = 3;
+                    dd.fp[FP_F_HAZE + 3] = 9;
+                }
+                /* The fallbacks to fp_fog_od per stretch. */
+                if (variant == 2)
+                    dd.fp[FP_F_LOD_MU] = 0.6;
+                if (variant == 3)
+                    dd.fp[FP_F_OD_MAX] = 0.3;
+                if (variant == 4) {
+                    dd.fp[FP_F_MODE] = 1;
+                    dd.fp[FP_F_STEPS] = 16;
+                }
+                if (variant == 5)
+                    dd.fp[FP_F_LOD_BOUND] = 1e-4;
+                const fp_fog_tables_t *t = dd.tables;
+                for (int k = 0; k < 60; k++) {
+                    double o[3], dir[3], len;
+                    random_ray(k, o, dir, &len);
+                    if (k % 5 == 0)
+                        len = INFINITY;
+                    double span = isinf(len) ? 80 : len;
+                    /* Sorted cut points, some repeated, some past len. */
+                    double cut[24];
+                    int n = 1 + (int)(urand() * 22);
+                    for (int i = 0; i < n; i++)
+                        cut[i] = urand() * span * 1.1;
+                    if (n > 3)
+                        cut[2] = cut[1];
+                    qsort(cut, (size_t)n, sizeof cut[0], cmp_d);
+                    cut[n++] = len;
+                    fp_fog_cur_t cur;
+                    fp_fog_cur_init(&cur, dd.fp, t->lvi, o[0], o[1], o[2], dir[0], dir[1],
+                                    dir[2], len);
+                    /* The walk itself where it applies, else the fallback. */
+                    assert_int_equal(cur.walk, variant < 2);
+                    double t0 = 0;
+                    for (int i = 0; i < n; i++) {
+                        double t1 = fmin(cut[i], len);
+                        double got = fp_fog_cur_advance(&cur, dd.fp, FP_TABLES(t), t1);
+                        double ref = 0;
+                        if (t1 > t0) {
+                            double p[3] = { o[0] + t0 * dir[0], o[1] + t0 * dir[1],
+                                            o[2] + t0 * dir[2] };
+                            ref = fp_integrate_optical_depth(&dd, p, dir, t1 - t0, 0);
+                        }
+                        /* Relative; a stretch with next to no fog (below 1e-3 of the
+                         * optical depth it would have at F = 1) absolutely. */
+                        double floor_od = 1e-3 * dd.fp[FP_F_SIGMA] * (t1 - t0);
+                        double err = got == ref ? 0 : fabs(got - ref) / fmax(fabs(ref), floor_od);
+                        worst = fmax(worst, err);
+                        stretches++;
+                        if (!(err <= 1e-12))
+                            fail_msg("degree %d wrap %d variant %d ray %d stretch %d [%g, %g]: "
+                                     "cursor %.17g, fp_fog_od %.17g", degree, wrap, variant, k,
+                                     i, t0, t1, got, ref);
+                        t0 = fmax(t0, t1);
+                    }
+                }
+            }
+            unmake(&st);
+        }
+    print_message("resumable walk vs fp_fog_od per stretch: max relative difference %.2e over "
+                  "%d stretches (bound 1e-12)\n", worst, stretches);
+}
+
 /* --lod-bound: the levels it drops change tau by at most the bound, on
  * rays long and dense enough that it drops some (else the test could not
  * fail). */
@@ -536,6 +630,7 @@ int main(void)
         cmocka_unit_test(test_without_deconstruction),
         cmocka_unit_test(test_fast_path_errors),
         cmocka_unit_test(test_walk_matches_levels),
+        cmocka_unit_test(test_cursor_matches_fog_od),
         cmocka_unit_test(test_lod_bound),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
