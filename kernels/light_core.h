@@ -497,7 +497,8 @@ FP_FN void fp_sun_od_node(FP_CONSTANT const fp_real *lt, int c, int i, int j, in
 /* One column of the grid, the nodes (c, i, j, 0..NS-1) along the sun: the
  * exact optical depth from the last node to the sun, then each node's as
  * the next one's plus the exact optical depth of the stretch between
- * them (one walk toward the sun per column, in short pieces). */
+ * them (one walk down the column, away from the sun, resumed node after
+ * node: fp_fog_cur_t). */
 FP_FN void fp_sun_od_column(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                             FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                             FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
@@ -511,9 +512,11 @@ FP_FN void fp_sun_od_column(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_sun_od_node(lt, c, i, j, ns - 1, p);
     fp_real od = fp_fog_od(fp, lvi, lvf, coef, occ, p[0], p[1], p[2], l[0], l[1], l[2], FP_INF, 0);
     grid[at + ns - 1] = (float)(od * fp_sun_od_weight(lt, p[1]));
+    fp_fog_cur_t cur;
+    fp_fog_cur_init(&cur, fp, lvi, p[0], p[1], p[2], -l[0], -l[1], -l[2], (ns - 1) * hs);
     for (int k = ns - 2; k >= 0; k--) {
         fp_sun_od_node(lt, c, i, j, k, p);
-        od += fp_fog_od(fp, lvi, lvf, coef, occ, p[0], p[1], p[2], l[0], l[1], l[2], hs, 0);
+        od += fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, (ns - 1 - k) * hs);
         grid[at + k] = (float)(od * fp_sun_od_weight(lt, p[1]));
     }
 }

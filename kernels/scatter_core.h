@@ -546,11 +546,14 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
         fp_real step = fmax((fp_real)1 / fmax(fp[FP_F_SIGMA] + fp[FP_F_HAZE], (fp_real)1e-12),
                             (fp_real)1e-3);
         if (step < span) {
-            fp_real od_before = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0);
+            /* One walk along the ray (fp_fog_cur_t): to ta, then on. */
+            fp_fog_cur_t cur;
+            fp_fog_cur_init(&cur, fp, lvi, ox, oy, oz, dx, dy, dz, len);
+            fp_real od_before = fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, ta), od_run = 0;
             for (int k = 0; k < 80 && step < span && step < fp[FP_F_CAP]; k++) {
-                fp_real od =
-                    fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta + step, 0);
-                if (od - od_before >= od_stop ||
+                od_run += fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, ta + step);
+                fp_real od = od_before + od_run;
+                if (od_run >= od_stop ||
                     (isfinite(od_total) && od_total - od <= (fp_real)1e-4 * od_total))
                     break;
                 step *= 2;
