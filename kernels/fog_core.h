@@ -1076,7 +1076,9 @@ FP_FN void fp_fog_cur_init(fp_fog_cur_t *cur, FP_CONSTANT const fp_real *fp,
 }
 
 /* The optical depth over [cur->t, t1] (0 when t1 <= cur->t); the cursor
- * moves to t1.  t1 may be infinite (to where fp_fog_od stops). */
+ * moves to t1.  t1 may be infinite: to where fp_fog_od of the whole ray
+ * stops (its cap measured from the ray's start, so that the stretches of a
+ * ray add up to fp_fog_od of the ray). */
 FP_FN fp_real fp_fog_cur_advance(fp_fog_cur_t *cur, FP_CONSTANT const fp_real *fp,
                                  FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
                                  FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
@@ -1094,7 +1096,7 @@ FP_FN fp_real fp_fog_cur_advance(fp_fog_cur_t *cur, FP_CONSTANT const fp_real *f
                               fp[FP_F_HAZE + 3], py, cur->dy, t1 - t);
     fp_real lo = fmax(t, cur->a), hi = fmin(t1, cur->b);
     if (isinf(hi))
-        hi = fp_fogmap_cap(fp, &cur->p, lo);
+        hi = fmax(lo, fp_fogmap_cap(fp, &cur->p, cur->a));
     int L = (int)fp[FP_F_NLEVELS] - 1, d = (int)fp[FP_F_DEGREE];
     fp_lod_t lod;
     lod.bound = 0;
