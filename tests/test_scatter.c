@@ -2781,7 +2781,6 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_light_lanes),
         cmocka_unit_test(test_light_fast_opencl),
         cmocka_unit_test(test_shadow_map),
-        cmocka_unit_test(test_shafts_build_definition),
         cmocka_unit_test(test_screen_shadows),
         cmocka_unit_test(test_options),
         cmocka_unit_test(test_interleave),
@@ -2792,6 +2791,8 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_shafts_opencl),
         cmocka_unit_test(test_shafts_screen),
         cmocka_unit_test(test_ray_fills_grid),
+        /* Last: the random numbers it draws leave the others' as they were. */
+        cmocka_unit_test(test_shafts_build_definition),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     remove_scene();
