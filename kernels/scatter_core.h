@@ -136,9 +136,7 @@ FP_LFN float fp_l_acos(float x)
 
 FP_LFN float fp_l_one_minus_exp(float x)
 {
-    /* 1 - e^-x, x >= 0: the series below 0.05 (1 - e^-x would cancel). */
-    float series = x * (1.0f - x * (0.5f - x * (1.0f / 6 - x * (1.0f / 24))));
-    return x < 0.05f ? series : 1.0f - exp(-x);
+    return fp_one_minus_exp(x);
 }
 #else
 #define fp_l_atan atan
@@ -151,7 +149,7 @@ FP_LFN void fp_l_sincos(double x, double *s, double *c)
 }
 FP_LFN double fp_l_one_minus_exp(double x)
 {
-    return -expm1(-x);
+    return fp_one_minus_exp(x);
 }
 #endif
 

@@ -94,7 +94,7 @@ FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
          * (a refused step is halved and tried again from a->t). */
         fp_fog_cur_t cur = a->cur;
         fp_real x = fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, t1);
-        fp_real c0 = -expm1(-x), ea = exp(-a->u);
+        fp_real c0 = fp_one_minus_exp(x), ea = exp(-a->u);
         if (self && x > xmax && h > a->hmin) {
             a->h = h * fmax((fp_real)0.8 * xmax / x, (fp_real)0.1);
             continue;
