@@ -483,6 +483,14 @@ static void test_walk_matches_levels(void **state)
                   "%.2e (bound 1e-6)\n", worst);
 }
 
+/* The fog of the resumable walk's tests: 3 levels, a top for the
+ * quadratic basis, empty blocks for the cubic. */
+static void make_walk_case(setup_t *st, int degree, int wrap)
+{
+    int w = wrap == FP_WRAP_REPEAT ? 32 : 27, h = wrap == FP_WRAP_REPEAT ? 16 : 19;
+    make(st, w, h, degree, wrap, 3, degree == 2 ? 14.0 : INFINITY, degree == 3);
+}
+
 /* The resumable walk (fp_fog_cur_t): the optical depth over increasing
  * cut points of one ray, one cursor, equals fp_fog_od over each stretch
  * from its start (what the callers computed before) to 1e-12 relative, for
@@ -499,8 +507,7 @@ static void test_cursor_matches_fog_od(void **state)
     for (int degree = 0; degree <= 3; degree++)
         for (int wrap = 0; wrap <= 2; wrap++) {
             setup_t st;
-            int w = wrap == FP_WRAP_REPEAT ? 32 : 27, h = wrap == FP_WRAP_REPEAT ? 16 : 19;
-            make(&st, w, h, degree, wrap, 3, degree == 2 ? 14.0 : INFINITY, degree == 3);
+            make_walk_case(&st, degree, wrap);
             for (int variant = 0; variant < 6; variant++) {
                 fp_integrate_data_t dd = st.d;
                 if (variant == 1) {
@@ -647,8 +654,7 @@ static void test_cursor_opencl(void **state)
     for (int degree = 0; degree <= 3; degree++)
         for (int wrap = 0; wrap <= 2; wrap++) {
             setup_t st;
-            int w = wrap == FP_WRAP_REPEAT ? 32 : 27, h = wrap == FP_WRAP_REPEAT ? 16 : 19;
-            make(&st, w, h, degree, wrap, 3, degree == 2 ? 14.0 : INFINITY, degree == 3);
+            make_walk_case(&st, degree, wrap);
             fp_view_t v;
             assert_int_equal(make_view(&v, 16, 16, 2, -20), 0);
             assert_int_equal(fp_integrate_cl_prepare(&s, &st.d, &v, NULL), FP_OK);
