@@ -1,6 +1,8 @@
 #include "shafts.h"
 
+#include <float.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 
 int fp_shafts_levels(int w, int h)
@@ -11,20 +13,42 @@ int fp_shafts_levels(int w, int h)
     return l;
 }
 
-/* The smaller one-sided change of z at (i, j) along one axis (step di,
- * dj); 0 where no finite neighbour is on the same side. */
-static double one_sided(const float *z, int w, int h, int i, int j, int di, int dj)
+/* The map is built for every frame of a sequence (the sun's map moves with
+ * it), over about a million texels, so the per-texel work avoids calls:
+ * fmin, fminf, fmaxf and nextafterf are library calls at -O2, and the
+ * values compared are never NaN (undefined depths are +inf by then), where
+ * a comparison gives their results (bit for bit; a min of +0 and -0 may
+ * keep the other zero, which compares the same). */
+static inline double min_d(double a, double b)
 {
-    double c = z[(size_t)j * w + i], best = INFINITY;
-    for (int s = -1; s <= 1; s += 2) {
-        int a = i + s * di, b = j + s * dj;
-        if (a < 0 || b < 0 || a >= w || b >= h)
-            continue;
-        double v = z[(size_t)b * w + a];
-        if (isfinite(v))
-            best = fmin(best, fabs(v - c));
-    }
+    return b < a ? b : a;
+}
+
+/* The smaller change of z from c to its finite neighbours a and b (either
+ * may be absent: `has`), +inf when none. */
+static inline double one_sided(double c, float a, int has_a, float b, int has_b)
+{
+    double best = INFINITY;
+    if (has_a && isfinite(a))
+        best = fabs(a - c);
+    if (has_b && isfinite(b))
+        best = min_d(best, fabs(b - c));
     return isfinite(best) ? best : 0;
+}
+
+/* nextafterf(x, +inf). */
+static inline float next_up(float x)
+{
+    if (isnan(x) || x == INFINITY)
+        return x;
+    if (x == 0)
+        return FLT_TRUE_MIN;
+    union {
+        float f;
+        uint32_t u;
+    } v = { x };
+    v.u += x > 0 ? 1 : (uint32_t)-1;
+    return v.f;
 }
 
 /* Levels 1..nl of p (after its w x h level 0): min and max per block. */
@@ -48,8 +72,8 @@ static void build_levels(float *p, int w, int h, int nl)
                         lo = p[prev + 2 * ((size_t)b * pw + a)];
                         hi = p[prev + 2 * ((size_t)b * pw + a) + 1];
                     }
-                    mn = fminf(mn, lo);
-                    mx = fmaxf(mx, hi);
+                    mn = lo < mn ? lo : mn;
+                    mx = hi > mx ? hi : mx;
                 }
                 p[off + 2 * ((size_t)j * lw + i)] = mn;
                 p[off + 2 * ((size_t)j * lw + i) + 1] = mx;
@@ -94,18 +118,25 @@ int fp_shafts_build(const float *z, int w, int h, double max_slope_bias, double 
     float *p = malloc(total * sizeof *p);
     if (!p)
         return -1;
-    for (int j = 0; j < h; j++)
+    for (int j = 0; j < h; j++) {
+        const float *row = z + (size_t)j * w;
+        const float *up = j > 0 ? row - w : row, *down = j + 1 < h ? row + w : row;
         for (int i = 0; i < w; i++) {
-            double c = z[(size_t)j * w + i];
+            double c = row[i];
             if (!isfinite(c)) {
                 p[(size_t)j * w + i] = INFINITY;
                 continue;
             }
-            double slope = 0.5 * (one_sided(z, w, h, i, j, 1, 0) + one_sided(z, w, h, i, j, 0, 1));
-            double b = fmin(slope, max_slope_bias) + user_bias + 4e-7 * (fabs(c) + 1);
+            /* The smaller one-sided change of z along each axis. */
+            double sx = one_sided(c, row[i > 0 ? i - 1 : i], i > 0, row[i + 1 < w ? i + 1 : i],
+                                  i + 1 < w);
+            double sy = one_sided(c, up[i], j > 0, down[i], j + 1 < h);
+            double slope = 0.5 * (sx + sy);
+            double b = min_d(slope, max_slope_bias) + user_bias + 4e-7 * (fabs(c) + 1);
             /* Rounded up, so the bias never shrinks in float. */
-            p[(size_t)j * w + i] = nextafterf((float)(c + b), INFINITY);
+            p[(size_t)j * w + i] = next_up((float)(c + b));
         }
+    }
     build_levels(p, w, h, nl);
     *out = p;
     *n = total;

@@ -140,6 +140,23 @@ FP_FN fp_real fp_expm1_ratio(fp_real x)
                              : -expm1(-x) / x;
 }
 
+/* 1 - exp(-x), x >= 0: -expm1(-x).  In OpenCL expm1 is a call the CPU
+ * device does not inline: there the series below 0.05 (the first term
+ * left out, x^5/120, is below 3e-9 of it) and 1 - exp(-x) above (within
+ * 1e-6 of it in single precision). */
+#ifdef __OPENCL_VERSION__
+FP_FN float fp_one_minus_exp(float x)
+{
+    float series = x * (1.0f - x * (0.5f - x * (1.0f / 6 - x * (1.0f / 24))));
+    return x < 0.05f ? series : 1.0f - exp(-x);
+}
+#else
+FP_FN double fp_one_minus_exp(double x)
+{
+    return -expm1(-x);
+}
+#endif
+
 /* The t-interval [*a, *b] within [0, len] where lo <= oy + t dy < hi. */
 FP_FN int fp_slab(fp_real oy, fp_real dy, fp_real lo, fp_real hi, fp_real len,
                   fp_real *a, fp_real *b)
@@ -547,16 +564,26 @@ FP_FN fp_real fp_lod_tmap(FP_CONSTANT const int *lvi, FP_GLOBAL const float *coe
     return coef[off + (size_t)fp_wrap_index(m, ny) * nx + fp_wrap_index(k, nx)];
 }
 
+/* The DDA's state between calls of fp_grid_walk on one path and level
+ * (the resumable walk of fp_fog_cur_t): the cell (k, m) the walk stands in
+ * at its *t_end.  live 0: the walk finds its cell from a. */
+typedef struct fp_walk_t {
+    int live, k, m;
+} fp_walk_t;
+
 /* Integral of A_L times h(y) along p over [a, b], segment by segment (2D
  * DDA over the cells plus cuts at Y0 and every FP_SEG_U of the exponent),
  * until b, until the optical depth passes od_stop, or (lod->bound > 0)
  * until a coarser level may take over: *t_end and *L_next say where and
- * which.  `od` is the optical depth before a (for the bound). */
+ * which.  `od` is the optical depth before a (for the bound).  ws: where a
+ * walk of the same path and level left off at a (ws->live), its state at
+ * *t_end on return; so a walk resumed at its own *t_end goes on as one
+ * walk over both stretches (its segments also end at that t). */
 FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                            const int d, int L, int finer, const fp_path_t *p, fp_real a,
-                           fp_real b, fp_real od, fp_real od_stop, fp_lod_t *lod, fp_real *t_end,
-                           int *L_next)
+                           fp_real b, fp_real od, fp_real od_stop, fp_lod_t *lod, fp_walk_t *ws,
+                           fp_real *t_end, int *L_next)
 {
     int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
     FP_GLOBAL const float *cf = coef + lvi[L * FP_LI_STRIDE + FP_LI_APPROX];
@@ -573,7 +600,8 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_real tc = p->dy != 0 ? (y0 - p->oy) / p->dy : -FP_INF;
     int sx = dxdt > 0 ? 1 : -1, sy = dydt > 0 ? 1 : -1;
     fp_real ix = dxdt != 0 ? 1 / dxdt : 0, iy = dydt != 0 ? 1 / dydt : 0;
-    int k = fp_cell_of(xs + a * dxdt, dxdt), m = fp_cell_of(ys + a * dydt, dydt);
+    int k = ws->live ? ws->k : fp_cell_of(xs + a * dxdt, dxdt);
+    int m = ws->live ? ws->m : fp_cell_of(ys + a * dydt, dydt);
     int first = d / 2;
     /* Wrapped index of the cell's first coefficient column and row. */
     int kw = fp_wrap_index(k - first, nx), mw = fp_wrap_index(m - first, ny);
@@ -673,6 +701,9 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         }
     }
     *t_end = t;
+    ws->live = 1;
+    ws->k = k;
+    ws->m = m;
     return sum;
 }
 
@@ -681,21 +712,21 @@ FP_FN fp_real fp_grid_walk_any(FP_CONSTANT const fp_real *fp, FP_CONSTANT const 
                                FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                                int d, int L, int finer, const fp_path_t *p, fp_real a,
                                fp_real b, fp_real od, fp_real od_stop, fp_lod_t *lod,
-                               fp_real *t_end, int *L_next)
+                               fp_walk_t *ws, fp_real *t_end, int *L_next)
 {
     switch (d) {
     case 0:
-        return fp_grid_walk(fp, lvi, lvf, coef, 0, L, finer, p, a, b, od, od_stop, lod, t_end,
-                            L_next);
+        return fp_grid_walk(fp, lvi, lvf, coef, 0, L, finer, p, a, b, od, od_stop, lod, ws,
+                            t_end, L_next);
     case 1:
-        return fp_grid_walk(fp, lvi, lvf, coef, 1, L, finer, p, a, b, od, od_stop, lod, t_end,
-                            L_next);
+        return fp_grid_walk(fp, lvi, lvf, coef, 1, L, finer, p, a, b, od, od_stop, lod, ws,
+                            t_end, L_next);
     case 2:
-        return fp_grid_walk(fp, lvi, lvf, coef, 2, L, finer, p, a, b, od, od_stop, lod, t_end,
-                            L_next);
+        return fp_grid_walk(fp, lvi, lvf, coef, 2, L, finer, p, a, b, od, od_stop, lod, ws,
+                            t_end, L_next);
     default:
-        return fp_grid_walk(fp, lvi, lvf, coef, 3, L, finer, p, a, b, od, od_stop, lod, t_end,
-                            L_next);
+        return fp_grid_walk(fp, lvi, lvf, coef, 3, L, finer, p, a, b, od, od_stop, lod, ws,
+                            t_end, L_next);
     }
 }
 
@@ -801,6 +832,75 @@ FP_FN void fp_clamp_piece(FP_CONSTANT const fp_real *fp, const fp_path_t *p, fp_
     }
 }
 
+/* The fog-space ray o + t dir as a path over the fogmap's domain (the
+ * fog-local frame: the fog's offset and its turn about the vertical
+ * undone; U = (x - A0) uscale + pad_x0, likewise V on z), and the stretch
+ * [*a, *b] of t in [0, len] where the fogmap's fog can be: in the fog box,
+ * below the fog's top, and in the fogmap's clip rectangle when it does not
+ * wrap.  *b is infinite where len is. */
+FP_FN void fp_fogmap_path(FP_CONSTANT const fp_real *fp, fp_real ox, fp_real oy, fp_real oz,
+                          fp_real dx, fp_real dy, fp_real dz, fp_real len, fp_path_t *p,
+                          fp_real *a, fp_real *b)
+{
+    fp_real c = fp[FP_F_COS], s = fp[FP_F_SIN];
+    fp_real px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
+    fp_real qx = c * px - s * pz, qz = s * px + c * pz;
+    fp_real ex = c * dx - s * dz, ez = s * dx + c * dz;
+    *a = 0;
+    *b = len;
+    fp_clip(qx, ex, fp[FP_F_BOX], fp[FP_F_BOX + 3], a, b);
+    fp_clip(py, dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], a, b);
+    fp_clip(qz, ez, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], a, b);
+    fp_clip(py, dy, -FP_INF, fp[FP_F_TOP], a, b);
+    p->u0 = (qx - fp[FP_F_A0]) * fp[FP_F_USCALE] + fp[FP_F_PAD_X0];
+    p->du = ex * fp[FP_F_USCALE];
+    p->v0 = (qz - fp[FP_F_B0]) * fp[FP_F_VSCALE] + fp[FP_F_PAD_Y0];
+    p->dv = ez * fp[FP_F_VSCALE];
+    p->oy = py;
+    p->dy = dy;
+    if ((int)fp[FP_F_WRAP] == 0) {
+        fp_clip(p->u0, p->du, fp[FP_F_CLIP], fp[FP_F_CLIP + 1], a, b);
+        fp_clip(p->v0, p->dv, fp[FP_F_CLIP + 2], fp[FP_F_CLIP + 3], a, b);
+    }
+}
+
+/* Where an unbounded stretch from a ends: where the exponential has died
+ * out, or CAP on. */
+FP_FN fp_real fp_fogmap_cap(FP_CONSTANT const fp_real *fp, const fp_path_t *p, fp_real a)
+{
+    if (p->dy > 0 && isfinite(fp[FP_F_H]))
+        return fmax(a, (fp[FP_F_Y0] + 40 * fp[FP_F_H] - p->oy) / p->dy);
+    return a + fp[FP_F_CAP];
+}
+
+/* Clamp: outside the box the fog repeats its edge, so the clamped path is
+ * straight within each of up to five pieces between box crossings: their
+ * ends from a to b, sorted, into cuts (6); returns their count. */
+FP_FN int fp_clamp_cuts(FP_CONSTANT const fp_real *fp, const fp_path_t *p, fp_real a, fp_real b,
+                        fp_real *cuts)
+{
+    int ncut = 0;
+    cuts[ncut++] = a;
+    if ((int)fp[FP_F_WRAP] == 1) {
+        for (int axis = 0; axis < 4; axis++) {
+            fp_real o = axis < 2 ? p->u0 : p->v0, dd = axis < 2 ? p->du : p->dv;
+            if (dd == 0)
+                continue;
+            fp_real tc = (fp[FP_F_CLIP + axis] - o) / dd;
+            if (tc > a && tc < b) {
+                int i = ncut++;
+                while (i > 0 && cuts[i - 1] > tc) {
+                    cuts[i] = cuts[i - 1];
+                    i--;
+                }
+                cuts[i] = tc;
+            }
+        }
+    }
+    cuts[ncut++] = b;
+    return ncut;
+}
+
 /* Optical depth of the fogmap part along the fog-space ray o + t dir,
  * t in [0, len].  `jitter` in [-0.5, 0.5) offsets the march samples. */
 FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
@@ -809,36 +909,12 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
                            fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real len,
                            fp_real jitter)
 {
-    /* Fog-local frame: undo the fog's offset and its turn about the vertical. */
-    fp_real c = fp[FP_F_COS], s = fp[FP_F_SIN];
-    fp_real px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
-    fp_real qx = c * px - s * pz, qz = s * px + c * pz;
-    fp_real ex = c * dx - s * dz, ez = s * dx + c * dz;
-    fp_real a = 0, b = len;
-    fp_clip(qx, ex, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a, &b);
-    fp_clip(py, dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
-    fp_clip(qz, ez, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], &a, &b);
-    fp_clip(py, dy, -FP_INF, fp[FP_F_TOP], &a, &b);
-    /* Domain coordinates: U = (x - A0) uscale + pad_x0, likewise V on z. */
     fp_path_t p;
-    p.u0 = (qx - fp[FP_F_A0]) * fp[FP_F_USCALE] + fp[FP_F_PAD_X0];
-    p.du = ex * fp[FP_F_USCALE];
-    p.v0 = (qz - fp[FP_F_B0]) * fp[FP_F_VSCALE] + fp[FP_F_PAD_Y0];
-    p.dv = ez * fp[FP_F_VSCALE];
-    p.oy = py;
-    p.dy = dy;
+    fp_real a, b;
+    fp_fogmap_path(fp, ox, oy, oz, dx, dy, dz, len, &p, &a, &b);
     int wrap = (int)fp[FP_F_WRAP];
-    if (wrap == 0) {
-        fp_clip(p.u0, p.du, fp[FP_F_CLIP], fp[FP_F_CLIP + 1], &a, &b);
-        fp_clip(p.v0, p.dv, fp[FP_F_CLIP + 2], fp[FP_F_CLIP + 3], &a, &b);
-    }
-    if (isinf(b)) {
-        /* Unbounded: stop where the exponential has died out, or at CAP. */
-        if (dy > 0 && isfinite(fp[FP_F_H]))
-            b = fmax(a, (fp[FP_F_Y0] + 40 * fp[FP_F_H] - py) / dy);
-        else
-            b = a + fp[FP_F_CAP];
-    }
+    if (isinf(b))
+        b = fp_fogmap_cap(fp, &p, a);
     if (!(b > a))
         return 0;
     fp_real sigma = fp[FP_F_SIGMA];
@@ -869,28 +945,8 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
         scale *= mu;
     }
     fp_real od_max = fp[FP_F_OD_MAX] / fmax(sigma, (fp_real)1e-30);
-    /* Clamp: outside the box the fog repeats its edge, so the clamped path
-     * is straight within each of up to five pieces between box crossings. */
     fp_real cuts[6];
-    int ncut = 0;
-    cuts[ncut++] = a;
-    if (wrap == 1) {
-        for (int axis = 0; axis < 4; axis++) {
-            fp_real o = axis < 2 ? p.u0 : p.v0, dd = axis < 2 ? p.du : p.dv;
-            if (dd == 0)
-                continue;
-            fp_real tc = (fp[FP_F_CLIP + axis] - o) / dd;
-            if (tc > a && tc < b) {
-                int i = ncut++;
-                while (i > 0 && cuts[i - 1] > tc) {
-                    cuts[i] = cuts[i - 1];
-                    i--;
-                }
-                cuts[i] = tc;
-            }
-        }
-    }
-    cuts[ncut++] = b;
+    int ncut = fp_clamp_cuts(fp, &p, a, b, cuts);
     fp_real od = 0;
     /* One walk per ray when every level has its sum surface A_l (not with
      * raw bands): A_L over [dmax[L+1], dmax[L]), L falling with t. */
@@ -916,8 +972,10 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
             L = L < Lcap ? L : Lcap;
             fp_real te;
             int Ln;
+            fp_walk_t w;
+            w.live = 0;
             od += fp_grid_walk_any(fp, lvi, lvf, coef, d, L, L < Lcap, &q, t, fmin(pb, dmax[L]),
-                                   od, od_max, &lod, &te, &Ln);
+                                   od, od_max, &lod, &w, &te, &Ln);
             L = Ln;
             t = te;
         }
@@ -977,6 +1035,117 @@ FP_FN fp_real fp_fog_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lv
         od += fp_height_od(fp[FP_F_SIGMA], fp[FP_F_Y0], fp[FP_F_H], fp[FP_F_TOP],
                            py + a * dy, dy, b - a);
     return od;
+}
+
+/* A resumable walk: the optical depth of the whole fog (fp_fog_od's) over
+ * [t, t1], [t1, t2], ... of one fog-space ray o + t dir, t in [0, len],
+ * for increasing ends, at the cost of one walk over the ray.  The fogmap's
+ * DDA keeps its cell from one stretch to the next (fp_walk_t), so a
+ * stretch costs its own segments only, not the set-up of fp_fogmap_od
+ * (rotation, clipping, the DDA's first cell) nor a walk from the camera;
+ * each stretch is integrated by the same loop (fp_grid_walk) with the same
+ * per-segment math, its segments also ending at the stretch's ends, so the
+ * result is fp_fog_od's over [t, t1] up to rounding (tests/test_fogmap.c).
+ * The haze and fog without a fogmap are closed forms per stretch.  The
+ * rare paths go to fp_fog_od over each stretch from o + t dir (exactly
+ * what the callers did before): march mode, levels kept as raw bands,
+ * --lod-bound, --lod-mu < 1 and --lod-footprint (their levels' reach is
+ * measured from each call's start), --min-transmittance (early
+ * termination within each call).  A cursor is plain data: a copy of it
+ * tries a stretch that may be refused (a step halved) and the original
+ * goes on unchanged. */
+typedef struct fp_fog_cur_t {
+    fp_real ox, oy, oz, dx, dy, dz; /* the ray */
+    fp_real t;                      /* where the next stretch starts */
+    int walk;                       /* 1: the resumable walk; 0: fp_fog_od per stretch */
+    fp_path_t p, q;                 /* the path; q: that of the current clamp piece */
+    fp_real a, b;                   /* where the fogmap's fog can be (b may be infinite) */
+    fp_real cuts[6];                /* the clamp pieces' ends (fp_clamp_cuts) */
+    int ncut, piece;
+    fp_walk_t w;                    /* the DDA, standing at wt */
+    fp_real wt;
+} fp_fog_cur_t;
+
+/* A cursor at t = 0 along o + t dir, t in [0, len] (len may be infinite). */
+FP_FN void fp_fog_cur_init(fp_fog_cur_t *cur, FP_CONSTANT const fp_real *fp,
+                           FP_CONSTANT const int *lvi, fp_real ox, fp_real oy, fp_real oz,
+                           fp_real dx, fp_real dy, fp_real dz, fp_real len)
+{
+    cur->ox = ox;
+    cur->oy = oy;
+    cur->oz = oz;
+    cur->dx = dx;
+    cur->dy = dy;
+    cur->dz = dz;
+    cur->t = 0;
+    int nl = (int)fp[FP_F_NLEVELS];
+    cur->walk = fp[FP_F_HAS_MAP] != 0 && (int)fp[FP_F_MODE] == 0 && lvi[FP_LI_APPROX] >= 0 &&
+                !(fp[FP_F_LOD_BOUND] > 0) && !(fp[FP_F_FOOTPRINT] > 0) &&
+                (nl < 2 || fp[FP_F_LOD_MU] >= 1) && isinf(fp[FP_F_OD_MAX]);
+    cur->w.live = 0;
+    cur->wt = 0;
+    cur->piece = 0;
+    cur->ncut = 0;
+    if (!cur->walk)
+        return;
+    fp_fogmap_path(fp, ox, oy, oz, dx, dy, dz, len, &cur->p, &cur->a, &cur->b);
+    cur->ncut = fp_clamp_cuts(fp, &cur->p, cur->a, cur->b, cur->cuts);
+}
+
+/* The optical depth over [cur->t, t1] (0 when t1 <= cur->t); the cursor
+ * moves to t1.  t1 may be infinite: to where fp_fog_od of the whole ray
+ * stops (its cap measured from the ray's start, so that the stretches of a
+ * ray add up to fp_fog_od of the ray). */
+FP_FN fp_real fp_fog_cur_advance(fp_fog_cur_t *cur, FP_CONSTANT const fp_real *fp,
+                                 FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                                 FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
+                                 fp_real t1)
+{
+    fp_real t = cur->t;
+    if (!(t1 > t))
+        return 0;
+    cur->t = t1;
+    fp_real px = cur->ox + t * cur->dx, py = cur->oy + t * cur->dy, pz = cur->oz + t * cur->dz;
+    if (!cur->walk)
+        return fp_fog_od(fp, lvi, lvf, coef, occ, px, py, pz, cur->dx, cur->dy, cur->dz, t1 - t,
+                         0);
+    fp_real od = fp_height_od(fp[FP_F_HAZE], fp[FP_F_HAZE + 1], fp[FP_F_HAZE + 2],
+                              fp[FP_F_HAZE + 3], py, cur->dy, t1 - t);
+    fp_real lo = fmax(t, cur->a), hi = fmin(t1, cur->b);
+    if (isinf(hi))
+        hi = fmax(lo, fp_fogmap_cap(fp, &cur->p, cur->a));
+    int L = (int)fp[FP_F_NLEVELS] - 1, d = (int)fp[FP_F_DEGREE];
+    fp_lod_t lod;
+    lod.bound = 0;
+    lod.spent = 0;
+    lod.sigma = fp[FP_F_SIGMA];
+    lod.wdone = 0;
+    lod.wtot = 1;
+    fp_real sum = 0;
+    for (int guard = 0; lo < hi && guard < 16; guard++) {
+        /* The clamp piece that holds lo (one piece without clamp). */
+        int piece = cur->piece;
+        while (piece + 2 < cur->ncut && cur->cuts[piece + 1] <= lo)
+            piece++;
+        fp_real pa = cur->cuts[piece], pb = fmin(hi, cur->cuts[piece + 1]);
+        if (piece != cur->piece || !cur->w.live) {
+            cur->q = cur->p;
+            /* Any point of the piece tells which side of the box it is. */
+            if ((int)fp[FP_F_WRAP] == 1)
+                fp_clamp_piece(fp, &cur->p, pa, isinf(pb) ? pa + 1 : pb, &cur->q);
+            cur->piece = piece;
+            cur->w.live = 0;
+        }
+        /* Resumed where the last stretch left off, else from lo afresh. */
+        cur->w.live = cur->w.live && cur->wt == lo;
+        fp_real te;
+        int Ln;
+        sum += fp_grid_walk_any(fp, lvi, lvf, coef, d, L, 0, &cur->q, lo, pb, 0, FP_INF, &lod,
+                                &cur->w, &te, &Ln);
+        cur->wt = te;
+        lo = te > lo ? te : pb;
+    }
+    return od + fp[FP_F_SIGMA] * sum;
 }
 
 /* The no-fogmap path without branches: fp_slab, fp_height_od, fp_clip and

@@ -481,7 +481,8 @@ FP_FN fp_real fp_sun_od_weight(FP_CONSTANT const fp_real *lt, fp_real y)
     fp_real H = lt[FP_LT_GRID_W + 1];
     fp_real e = fmin(fmax(y - lt[FP_LT_GRID_W], (fp_real)0) / fmax(H, (fp_real)1e-30),
                      (fp_real)80);
-    return H > 0 ? exp(e) : (fp_real)1;
+    /* e = 0 below Y0 and for fog without a falloff (H infinite): no exp. */
+    return H > 0 && e > 0 ? exp(e) : (fp_real)1;
 }
 
 /* The fog-space point of node (c, i, j, k). */
@@ -497,7 +498,8 @@ FP_FN void fp_sun_od_node(FP_CONSTANT const fp_real *lt, int c, int i, int j, in
 /* One column of the grid, the nodes (c, i, j, 0..NS-1) along the sun: the
  * exact optical depth from the last node to the sun, then each node's as
  * the next one's plus the exact optical depth of the stretch between
- * them (one walk toward the sun per column, in short pieces). */
+ * them (one walk down the column, away from the sun, resumed node after
+ * node: fp_fog_cur_t). */
 FP_FN void fp_sun_od_column(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                             FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                             FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
@@ -511,9 +513,11 @@ FP_FN void fp_sun_od_column(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_sun_od_node(lt, c, i, j, ns - 1, p);
     fp_real od = fp_fog_od(fp, lvi, lvf, coef, occ, p[0], p[1], p[2], l[0], l[1], l[2], FP_INF, 0);
     grid[at + ns - 1] = (float)(od * fp_sun_od_weight(lt, p[1]));
+    fp_fog_cur_t cur;
+    fp_fog_cur_init(&cur, fp, lvi, p[0], p[1], p[2], -l[0], -l[1], -l[2], (ns - 1) * hs);
     for (int k = ns - 2; k >= 0; k--) {
         fp_sun_od_node(lt, c, i, j, k, p);
-        od += fp_fog_od(fp, lvi, lvf, coef, occ, p[0], p[1], p[2], l[0], l[1], l[2], hs, 0);
+        od += fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, (ns - 1 - k) * hs);
         grid[at + k] = (float)(od * fp_sun_od_weight(lt, p[1]));
     }
 }
@@ -568,20 +572,30 @@ FP_FN fp_real fp_sun_od_grid(FP_CONSTANT const fp_real *lt, FP_GLOBAL const floa
     return od / fp_sun_od_weight(lt, y);
 }
 
+/* Optical depth from a point toward the sun through the fog (0 without
+ * self-shadowing). */
+FP_FN fp_real fp_sun_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                        FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                        FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
+                        FP_GLOBAL const float *grid, fp_real x, fp_real y, fp_real z)
+{
+    int self = (int)lt[FP_LT_SELF];
+    if (self == FP_SELF_OFF)
+        return 0;
+    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
+    fp_real od = self == FP_SELF_MAP ? fp_sun_od_grid(lt, grid, x, y, z) : -1;
+    if (od < (fp_real)-0.5)
+        od = fp_fog_od(fp, lvi, lvf, coef, occ, x, y, z, l[0], l[1], l[2], FP_INF, 0);
+    return od;
+}
+
 /* Transmittance from a point toward the sun through the fog (tau_k). */
 FP_FN fp_real fp_sun_tau(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                          FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                          FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
                          FP_GLOBAL const float *grid, fp_real x, fp_real y, fp_real z)
 {
-    int self = (int)lt[FP_LT_SELF];
-    if (self == FP_SELF_OFF)
-        return 1;
-    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
-    fp_real od = self == FP_SELF_MAP ? fp_sun_od_grid(lt, grid, x, y, z) : -1;
-    if (od < (fp_real)-0.5)
-        od = fp_fog_od(fp, lvi, lvf, coef, occ, x, y, z, l[0], l[1], l[2], FP_INF, 0);
-    return exp(-od);
+    return exp(-fp_sun_od(fp, lvi, lvf, coef, occ, lt, grid, x, y, z));
 }
 
 /* Interleaved sampling (Keller and Heidrich 2001): pixel (x, y)'s offset

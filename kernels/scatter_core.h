@@ -20,6 +20,7 @@
 #define FP_SCATTER_CORE_H
 
 #define FP_SCATTER_MAX_STEPS_ 256
+#define FP_SCATTER_DOUBLINGS 80   /* trial ends of the doubling in fp_scatter_ray_core */
 
 #include "shafts_core.h"
 
@@ -135,9 +136,7 @@ FP_LFN float fp_l_acos(float x)
 
 FP_LFN float fp_l_one_minus_exp(float x)
 {
-    /* 1 - e^-x, x >= 0: the series below 0.05 (1 - e^-x would cancel). */
-    float series = x * (1.0f - x * (0.5f - x * (1.0f / 6 - x * (1.0f / 24))));
-    return x < 0.05f ? series : 1.0f - exp(-x);
+    return fp_one_minus_exp(x);
 }
 #else
 #define fp_l_atan atan
@@ -150,7 +149,7 @@ FP_LFN void fp_l_sincos(double x, double *s, double *c)
 }
 FP_LFN double fp_l_one_minus_exp(double x)
 {
-    return -expm1(-x);
+    return fp_one_minus_exp(x);
 }
 #endif
 
@@ -496,10 +495,33 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
                              fp_real *S)
 {
     S[0] = S[1] = S[2] = 0;
-    fp_real od_total = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, len, 0);
-    fp_real tau = exp(-od_total);
     fp_real ta, tb;
-    if (!(od_total > 0) || !fp_fog_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb))
+    int in_fog = fp_fog_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb);
+    /* The doubling below (where the fog stops mattering) tries ends
+     * ta + step0 2^k.  With a fogmap one walk along the ray (fp_fog_cur_t)
+     * gives the optical depth to ta, to each of those ends and to len. */
+    fp_real step0 = fmax((fp_real)1 / fmax(fp[FP_F_SIGMA] + fp[FP_F_HAZE], (fp_real)1e-12),
+                         (fp_real)1e-3);
+    fp_real od_ta = 0, od_try[FP_SCATTER_DOUBLINGS];
+    fp_fog_cur_t cur;
+    fp_fog_cur_init(&cur, fp, lvi, ox, oy, oz, dx, dy, dz, len);
+    fp_real od_total;
+    if (cur.walk && in_fog) {
+        od_ta = fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, ta);
+        od_total = od_ta;
+        fp_real step = step0;
+        for (int k = 0; k < FP_SCATTER_DOUBLINGS && step < tb - ta && step < fp[FP_F_CAP];
+             k++) {
+            od_total += fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, ta + step);
+            od_try[k] = od_total;
+            step *= 2;
+        }
+        od_total += fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, len);
+    } else {
+        od_total = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, len, 0);
+    }
+    fp_real tau = exp(-od_total);
+    if (!(od_total > 0) || !in_fog)
         return tau;
     fp_real albedo = lt[FP_LT_ALBEDO];
     if (lt[FP_LT_SUN_ON] == 0 && lt[FP_LT_NLIGHTS] == 0) {
@@ -542,15 +564,19 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
         /* Go only as far as the fog still matters: until its optical depth
          * from ta passes od_stop, or nearly all of it is behind (a sky
          * ray, or geometry far beyond the fog), found by doubling. */
-        fp_real span = tb - ta;
-        fp_real step = fmax((fp_real)1 / fmax(fp[FP_F_SIGMA] + fp[FP_F_HAZE], (fp_real)1e-12),
-                            (fp_real)1e-3);
+        fp_real span = tb - ta, step = step0;
         if (step < span) {
-            fp_real od_before = fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0);
-            for (int k = 0; k < 80 && step < span && step < fp[FP_F_CAP]; k++) {
-                fp_real od =
-                    fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta + step, 0);
-                if (od - od_before >= od_stop ||
+            /* Without the walk: a cursor of fp_fog_od per stretch, here. */
+            int tried = cur.walk;
+            if (!tried) {
+                fp_fog_cur_init(&cur, fp, lvi, ox, oy, oz, dx, dy, dz, len);
+                od_ta = fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, ta);
+            }
+            fp_real od = od_ta;
+            for (int k = 0; k < FP_SCATTER_DOUBLINGS && step < span && step < fp[FP_F_CAP]; k++) {
+                od = tried ? od_try[k]
+                           : od + fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, ta + step);
+                if (od - od_ta >= od_stop ||
                     (isfinite(od_total) && od_total - od <= (fp_real)1e-4 * od_total))
                     break;
                 step *= 2;
@@ -582,7 +608,9 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
      * dense fog gets more of them; MAX_STEPS bounds the count. */
     fp_real segt[FP_SCATTER_MAX_STEPS_ + 1], odc[FP_SCATTER_MAX_STEPS_ + 1];
     fp_real Ja[3], Jb[3];
-    fp_real od = ta > 0 ? fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0) : 0;
+    fp_real od = cur.walk ? od_ta
+                 : ta > 0 ? fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0)
+                          : 0;
     fp_scatter_source(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width, height, ph_sun,
                       ox + ta * dx, oy + ta * dy, oz + ta * dz, Ja);
     segt[0] = ta;

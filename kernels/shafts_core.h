@@ -51,7 +51,9 @@ typedef struct {
     int layered;
     fp_real e0, k;      /* layered: e^-s0, 1 + r */
     fp_real t, u, C, T; /* carried: where, camera optical depth, C, tau_sun there */
+    fp_real s;          /* carried: the sun's optical depth there (T = e^-s) */
     fp_real h, hmax, hmin;
+    fp_fog_cur_t cur;   /* carried: the view ray's walk, at t */
 } fp_sun_acc_t;
 
 /* e0 (1 - e^{-k u}) / k without cancellation or overflow. */
@@ -88,16 +90,19 @@ FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
     for (int guard = 0; a->t < t && guard < 4096; guard++) {
         fp_real h = fmin(a->h, t - a->t);
         fp_real t1 = h >= t - a->t ? t : a->t + h;
-        fp_real px = ox + a->t * dx, py = oy + a->t * dy, pz = oz + a->t * dz;
-        fp_real x = fp_fog_od(fp, lvi, lvf, coef, occ, px, py, pz, dx, dy, dz, t1 - a->t, 0);
-        fp_real c0 = -expm1(-x), ea = exp(-a->u);
+        /* The step's optical depth from the ray's walk, tried on a copy
+         * (a refused step is halved and tried again from a->t). */
+        fp_fog_cur_t cur = a->cur;
+        fp_real x = fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, t1);
+        fp_real c0 = fp_one_minus_exp(x), ea = exp(-a->u);
         if (self && x > xmax && h > a->hmin) {
             a->h = h * fmax((fp_real)0.8 * xmax / x, (fp_real)0.1);
             continue;
         }
-        fp_real T1 = self ? fp_sun_tau(fp, lvi, lvf, coef, occ, lt, grid, ox + t1 * dx,
-                                       oy + t1 * dy, oz + t1 * dz)
-                          : (fp_real)1;
+        fp_real s1 = self ? fp_sun_od(fp, lvi, lvf, coef, occ, lt, grid, ox + t1 * dx,
+                                      oy + t1 * dy, oz + t1 * dz)
+                          : (fp_real)0;
+        fp_real T1 = exp(-s1);
         fp_real jump = fabs(T1 - a->T) * c0 * ea;
         if (jump > jmax * fmax((fp_real)0.5 * (T1 + a->T), (fp_real)1e-12) && h > a->hmin) {
             a->h = (fp_real)0.5 * h;
@@ -105,10 +110,11 @@ FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
         }
         /* The sun's optical depth taken linear in the camera's within the
          * step (exact in fog of height alone, where it is affine): T e^{-v}
-         * decays as e^{-k v}, k = 1 + its slope. */
+         * decays as e^{-k v}, k = 1 + its slope (the optical depths
+         * carried, not taken back from T by log). */
         fp_real tiny = (fp_real)1e-30;
         if (a->T > tiny && T1 > tiny && x > 0) {
-            fp_real k = 1 + (log(a->T) - log(T1)) / x;
+            fp_real k = 1 + (s1 - a->s) / x;
             a->C += ea * a->T * fp_sun_layered_C(1, k, x);
         } else {
             fp_real c1 = x > 0 ? fp_expm1_ratio(x) - exp(-x) : (fp_real)0;
@@ -116,7 +122,9 @@ FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
         }
         a->u += x;
         a->T = T1;
+        a->s = s1;
         a->t = t1;
+        a->cur = cur;
         if (x < (fp_real)0.25 * xmax && jump < (fp_real)0.25 * jmax * a->T)
             a->h = fmin(2 * a->h, a->hmax);
     }
@@ -193,15 +201,20 @@ FP_FN void fp_sun_acc_init(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
         a->e0 = exp(-fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, l[0], l[1], l[2], FP_INF, 0));
         a->k = 1 - dy / l[1];
     }
-    /* Carried: from ta, where the camera's optical depth is computed once. */
+    /* Carried: from ta, where the camera's optical depth is computed once,
+     * by the walk that then goes on along the ray (fp_fog_cur_t). */
     a->t = ta;
-    a->u = !layered && ta > 0 ? fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0)
-                              : 0;
+    a->u = 0;
+    if (!layered) {
+        fp_fog_cur_init(&a->cur, fp, lvi, ox, oy, oz, dx, dy, dz, FP_INF);
+        a->u = fp_fog_cur_advance(&a->cur, fp, lvi, lvf, coef, occ, ta);
+    }
     a->C = 0;
-    a->T = !layered && (int)lt[FP_LT_SELF] != FP_SELF_OFF
-               ? fp_sun_tau(fp, lvi, lvf, coef, occ, lt, grid, ox + ta * dx, oy + ta * dy,
-                            oz + ta * dz)
-               : 1;
+    a->s = !layered && (int)lt[FP_LT_SELF] != FP_SELF_OFF
+               ? fp_sun_od(fp, lvi, lvf, coef, occ, lt, grid, ox + ta * dx, oy + ta * dy,
+                           oz + ta * dz)
+               : 0;
+    a->T = exp(-a->s);
     a->hmax = h0;
     a->h = h0;
     a->hmin = h0 * (fp_real)(1.0 / 256);

@@ -483,6 +483,255 @@ static void test_walk_matches_levels(void **state)
                   "%.2e (bound 1e-6)\n", worst);
 }
 
+/* The fog of the resumable walk's tests: 3 levels, a top for the
+ * quadratic basis, empty blocks for the cubic. */
+static void make_walk_case(setup_t *st, int degree, int wrap)
+{
+    int w = wrap == FP_WRAP_REPEAT ? 32 : 27, h = wrap == FP_WRAP_REPEAT ? 16 : 19;
+    make(st, w, h, degree, wrap, 3, degree == 2 ? 14.0 : INFINITY, degree == 3);
+}
+
+/* The resumable walk (fp_fog_cur_t): the optical depth over increasing
+ * cut points of one ray, one cursor, equals fp_fog_od over each stretch
+ * from its start (what the callers computed before) to 1e-12 relative, for
+ * every basis and wrap, a fog box, a top, the haze, infinite rays, and the
+ * fallbacks (lod, early termination, march), and the stretches of a ray
+ * add up to fp_fog_od of the whole ray (the walk's cases, 1e-10); relative to the stretch's
+ * optical depth, or to 1e-3 of the one it would have at F = 1 where it has
+ * next to no fog. */
+static void test_cursor_matches_fog_od(void **state)
+{
+    (void)state;
+    double worst = 0, worst_sum = 0;
+    int stretches = 0;
+    for (int degree = 0; degree <= 3; degree++)
+        for (int wrap = 0; wrap <= 2; wrap++) {
+            setup_t st;
+            make_walk_case(&st, degree, wrap);
+            for (int variant = 0; variant < 6; variant++) {
+                fp_integrate_data_t dd = st.d;
+                if (variant == 1) {
+                    /* A moved, turned fog in a box, with haze. */
+                    const double box[6] = { -5, -1, -5, 20, 8, 15 };
+                    for (int i = 0; i < 6; i++)
+                        dd.fp[FP_F_BOX + i] = box[i];
+                    dd.fp[FP_F_OFF] = 1.5;
+                    dd.fp[FP_F_COS] = cos(0.3);
+                    dd.fp[FP_F_SIN] = sin(0.3);
+                    dd.fp[FP_F_HAZE] = 0.02;
+                    dd.fp[FP_F_HAZE + 1] = 0.5;
+                    dd.fp[FP_F_HAZE + 2] = 3;
+                    dd.fp[FP_F_HAZE + 3] = 9;
+                }
+                /* The fallbacks to fp_fog_od per stretch. */
+                if (variant == 2)
+                    dd.fp[FP_F_LOD_MU] = 0.6;
+                if (variant == 3)
+                    dd.fp[FP_F_OD_MAX] = 0.3;
+                if (variant == 4) {
+                    dd.fp[FP_F_MODE] = 1;
+                    dd.fp[FP_F_STEPS] = 16;
+                }
+                if (variant == 5)
+                    dd.fp[FP_F_LOD_BOUND] = 1e-4;
+                const fp_fog_tables_t *t = dd.tables;
+                for (int k = 0; k < 60; k++) {
+                    double o[3], dir[3], len;
+                    random_ray(k, o, dir, &len);
+                    if (k % 5 == 0)
+                        len = INFINITY;
+                    double span = isinf(len) ? 80 : len;
+                    /* Sorted cut points, some repeated, some past len. */
+                    double cut[24];
+                    int n = 1 + (int)(urand() * 22);
+                    for (int i = 0; i < n; i++)
+                        cut[i] = urand() * span * 1.1;
+                    if (n > 3)
+                        cut[2] = cut[1];
+                    qsort(cut, (size_t)n, sizeof cut[0], cmp_d);
+                    cut[n++] = len;
+                    fp_fog_cur_t cur;
+                    fp_fog_cur_init(&cur, dd.fp, t->lvi, o[0], o[1], o[2], dir[0], dir[1],
+                                    dir[2], len);
+                    /* The walk itself where it applies, else the fallback. */
+                    assert_int_equal(cur.walk, variant < 2);
+                    double t0 = 0, total = 0;
+                    for (int i = 0; i < n; i++) {
+                        double t1 = fmin(cut[i], len);
+                        double got = fp_fog_cur_advance(&cur, dd.fp, FP_TABLES(t), t1);
+                        double ref = 0;
+                        total += got;
+                        /* An infinite end: the whole ray's sum, below. */
+                        if (isinf(t1))
+                            continue;
+                        if (t1 > t0) {
+                            double p[3] = { o[0] + t0 * dir[0], o[1] + t0 * dir[1],
+                                            o[2] + t0 * dir[2] };
+                            ref = fp_integrate_optical_depth(&dd, p, dir, t1 - t0, 0);
+                        }
+                        /* Relative; a stretch with next to no fog (below 1e-3 of the
+                         * optical depth it would have at F = 1) absolutely. */
+                        double floor_od = 1e-3 * dd.fp[FP_F_SIGMA] * (t1 - t0);
+                        double err = got == ref ? 0 : fabs(got - ref) / fmax(fabs(ref), floor_od);
+                        worst = fmax(worst, err);
+                        stretches++;
+                        if (!(err <= 1e-12))
+                            fail_msg("degree %d wrap %d variant %d ray %d stretch %d [%g, %g]: "
+                                     "cursor %.17g, fp_fog_od %.17g", degree, wrap, variant, k,
+                                     i, t0, t1, got, ref);
+                        t0 = fmax(t0, t1);
+                    }
+                    /* The stretches add up to the whole ray's optical depth (to
+                     * 1e-10: each stretch's haze starts at o + t dir rounded,
+                     * which moves a grazing ray's crossing of the haze's base
+                     * by that rounding over its slope). */
+                    double whole = fp_integrate_optical_depth(&dd, o, dir, len, 0);
+                    double floor_od = 1e-3 * dd.fp[FP_F_SIGMA] * fmin(span, 50);
+                    double err = total == whole ? 0
+                                 : fabs(total - whole) / fmax(fabs(whole), floor_od);
+                    if (variant >= 2)
+                        continue;   /* per stretch by design (early termination) */
+                    worst_sum = fmax(worst_sum, err);
+                    if (!(err <= 1e-10))
+                        fail_msg("degree %d wrap %d variant %d ray %d: stretches add up to %.17g, "
+                                 "fp_fog_od of the ray %.17g", degree, wrap, variant, k, total,
+                                 whole);
+                }
+            }
+            unmake(&st);
+        }
+    print_message("resumable walk vs fp_fog_od per stretch: max relative difference %.2e over "
+                  "%d stretches; their sums vs fp_fog_od of the whole ray %.2e (bounds 1e-12, 1e-10)\n",
+                  worst, stretches, worst_sum);
+}
+
+/* The resumable walk in single precision (the OpenCL compilation of
+ * fog_core.h, in a test kernel built from the integrate program's source)
+ * against the C reference, fp_fog_od in double over each stretch: every
+ * basis and wrap, random rays and cut points; |d| <= 1e-5 + 1e-4 |od|. */
+static const char cursor_kernel[] =
+    "\n__kernel void cursor_test(__global const float *ray, __global const float *cut,\n"
+    "    __global float *out, __constant const float *fp, __constant const int *lvi,\n"
+    "    __constant const float *lvf, __global const float *coef, __global const uchar *occ)\n"
+    "{\n"
+    "    int r = get_global_id(0);\n"
+    "    __global const float *q = ray + 8 * r;\n"
+    "    fp_fog_cur_t cur;\n"
+    "    fp_fog_cur_init(&cur, fp, lvi, q[0], q[1], q[2], q[3], q[4], q[5], q[6]);\n"
+    "    for (int i = 0; i < (int)q[7]; i++)\n"
+    "        out[24 * r + i] = fp_fog_cur_advance(&cur, fp, lvi, lvf, coef, occ, cut[24 * r + i]);\n"
+    "}\n";
+
+static void test_cursor_opencl(void **state)
+{
+    (void)state;
+    fp_cl_t *cl = NULL;
+    if (fp_cl_open(NULL, &cl) != FP_OK)
+        skip();
+    const char *base = NULL;
+    for (int i = 0; i < fp_kernel_source_count; i++)
+        if (strcmp(fp_kernel_sources[i].name, "integrate") == 0)
+            base = fp_kernel_sources[i].source;
+    assert_non_null(base);
+    size_t nb = strlen(base);
+    char *src = malloc(nb + sizeof cursor_kernel);
+    memcpy(src, base, nb);
+    memcpy(src + nb, cursor_kernel, sizeof cursor_kernel);
+    cl_int err;
+    const char *srcs[1] = { src };
+    cl_device_id dev = fp_cl_device(cl);
+    cl_program prog = clCreateProgramWithSource(fp_cl_context(cl), 1, srcs, NULL, &err);
+    assert_int_equal(err, CL_SUCCESS);
+    assert_int_equal(clBuildProgram(prog, 1, &dev, "-cl-std=CL1.2", NULL, NULL), CL_SUCCESS);
+    cl_kernel k;
+    assert_int_equal(fp_cl_kernel(prog, "cursor_test", &k), FP_OK);
+    fp_integrate_cl_t s;
+    assert_int_equal(fp_integrate_cl_init(cl, &s), FP_OK);
+    enum { NR = 64, NC = 24 };
+    float ray[NR * 8], cut[NR * NC], got[NR * NC];
+    double cutd[NR * NC], worst = 0;
+    int stretches = 0;
+    for (int degree = 0; degree <= 3; degree++)
+        for (int wrap = 0; wrap <= 2; wrap++) {
+            setup_t st;
+            make_walk_case(&st, degree, wrap);
+            fp_view_t v;
+            assert_int_equal(make_view(&v, 16, 16, 2, -20), 0);
+            assert_int_equal(fp_integrate_cl_prepare(&s, &st.d, &v, NULL), FP_OK);
+            double o[NR][3], dir[NR][3];
+            int n[NR];
+            for (int r = 0; r < NR; r++) {
+                double len;
+                random_ray(r, o[r], dir[r], &len);
+                /* Float origins and directions, as the kernel sees them. */
+                for (int i = 0; i < 3; i++) {
+                    o[r][i] = (float)o[r][i];
+                    dir[r][i] = (float)dir[r][i];
+                    ray[8 * r + i] = (float)o[r][i];
+                    ray[8 * r + 3 + i] = (float)dir[r][i];
+                }
+                len = (float)len;
+                ray[8 * r + 6] = (float)len;
+                n[r] = 1 + (int)(urand() * (NC - 1));
+                for (int i = 0; i < n[r]; i++)
+                    cutd[NC * r + i] = (float)(urand() * len);
+                qsort(cutd + NC * r, (size_t)n[r], sizeof(double), cmp_d);
+                cutd[NC * r + n[r] - 1] = len;
+                for (int i = 0; i < n[r]; i++)
+                    cut[NC * r + i] = (float)cutd[NC * r + i];
+                ray[8 * r + 7] = (float)n[r];
+            }
+            cl_context ctx = fp_cl_context(cl);
+            cl_mem bray = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof ray,
+                                         ray, &err);
+            assert_int_equal(err, CL_SUCCESS);
+            cl_mem bcut = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof cut,
+                                         cut, &err);
+            assert_int_equal(err, CL_SUCCESS);
+            cl_mem bout = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, sizeof got, NULL, &err);
+            assert_int_equal(err, CL_SUCCESS);
+            assert_int_equal(FP_CL_ARG(k, 0, bray) || FP_CL_ARG(k, 1, bcut) ||
+                             FP_CL_ARG(k, 2, bout) || FP_CL_ARG(k, 3, s.params) ||
+                             FP_CL_ARG(k, 4, s.lvi) || FP_CL_ARG(k, 5, s.lvf) ||
+                             FP_CL_ARG(k, 6, s.coef) || FP_CL_ARG(k, 7, s.occ), FP_OK);
+            size_t global = NR;
+            cl_command_queue q = fp_cl_queue(cl);
+            assert_int_equal(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, NULL, 0, NULL, NULL),
+                             CL_SUCCESS);
+            assert_int_equal(clEnqueueReadBuffer(q, bout, CL_TRUE, 0, sizeof got, got, 0, NULL,
+                                                 NULL), CL_SUCCESS);
+            clReleaseMemObject(bray);
+            clReleaseMemObject(bcut);
+            clReleaseMemObject(bout);
+            for (int r = 0; r < NR; r++) {
+                double t0 = 0;
+                for (int i = 0; i < n[r]; i++) {
+                    double t1 = cutd[NC * r + i], ref = 0;
+                    if (t1 > t0) {
+                        double p[3] = { o[r][0] + t0 * dir[r][0], o[r][1] + t0 * dir[r][1],
+                                        o[r][2] + t0 * dir[r][2] };
+                        ref = fp_integrate_optical_depth(&st.d, p, dir[r], t1 - t0, 0);
+                    }
+                    double e = fabs(got[NC * r + i] - ref);
+                    worst = fmax(worst, e / (1e-5 + 1e-4 * fabs(ref)));
+                    stretches++;
+                    if (!(e <= 1e-5 + 1e-4 * fabs(ref)))
+                        fail_msg("degree %d wrap %d ray %d stretch %d [%g, %g]: OpenCL %.9g, C %.9g",
+                                 degree, wrap, r, i, t0, t1, got[NC * r + i], ref);
+                    t0 = fmax(t0, t1);
+                }
+            }
+            unmake(&st);
+        }
+    print_message("resumable walk, OpenCL (float) vs C reference per stretch: max |d| %.2f of the "
+                  "tolerance 1e-5 + 1e-4 |od| over %d stretches\n", worst, stretches);
+    clReleaseKernel(k);
+    clReleaseProgram(prog);
+    free(src);
+    fp_integrate_cl_release(&s);
+    fp_cl_close(cl);
+}
+
 /* --lod-bound: the levels it drops change tau by at most the bound, on
  * rays long and dense enough that it drops some (else the test could not
  * fail). */
@@ -536,7 +785,10 @@ int main(void)
         cmocka_unit_test(test_without_deconstruction),
         cmocka_unit_test(test_fast_path_errors),
         cmocka_unit_test(test_walk_matches_levels),
+        cmocka_unit_test(test_cursor_matches_fog_od),
         cmocka_unit_test(test_lod_bound),
+        /* Last: the random numbers it draws leave the others' as they were. */
+        cmocka_unit_test(test_cursor_opencl),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
