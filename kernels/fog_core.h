@@ -410,15 +410,24 @@ FP_TABLE fp_real fp_invfact[16] = {
     1.0 / 87178291200.0, 1.0 / 1307674368000.0 };
 
 /* sum_j c[j] z^j, j < FP_SEG_POW2, pairwise (Estrin): a few dependent
- * steps instead of one per term; c is overwritten. */
-FP_HOT fp_real fp_estrin(fp_real *c, fp_real z)
+ * steps instead of one per term.  Written out: as a loop over the halvings
+ * neither PoCL nor gcc unrolled it, and its partial sums went through
+ * memory, one store-to-load chain per step (half of the walk's time in
+ * perf).  The same pairs in the same order as that loop. */
+FP_HOT fp_real fp_estrin(const fp_real *c, fp_real z)
 {
-    for (int w = FP_SEG_POW2; w > 1; w /= 2) {
-        for (int i = 0; i < w / 2; i++)
-            c[i] = c[2 * i] + c[2 * i + 1] * z;
-        z *= z;
-    }
-    return c[0];
+    fp_real z2 = z * z, z4 = z2 * z2;
+    fp_real e0 = (c[0] + c[1] * z) + (c[2] + c[3] * z) * z2;
+    fp_real e1 = (c[4] + c[5] * z) + (c[6] + c[7] * z) * z2;
+#if FP_SEG_POW2 == 8
+    return e0 + e1 * z4;
+#elif FP_SEG_POW2 == 16
+    fp_real e2 = (c[8] + c[9] * z) + (c[10] + c[11] * z) * z2;
+    fp_real e3 = (c[12] + c[13] * z) + (c[14] + c[15] * z) * z2;
+    return (e0 + e1 * z4) + (e2 + e3 * z4) * (z4 * z4);
+#else
+#error "fp_estrin: FP_SEG_POW2 must be 8 or 16"
+#endif
 }
 
 /* 1 / n, n = 1..24. */
