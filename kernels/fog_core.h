@@ -510,12 +510,17 @@ FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, 
  * segment is kept on the coarse grid only while these costs stay within
  * the bound times the share of the path's weight done; otherwise the walk
  * goes one level finer there, and tries one coarser every 8 segments. */
+#ifndef FP_LOD_EVERY
+#define FP_LOD_EVERY 16     /* segments between tries of a coarser level (a power of 2) */
+#endif
 typedef struct fp_lod_t {
     fp_real bound;     /* largest |dtau| allowed in all (0: exact) */
     fp_real spent;     /* the costs of the segments done */
     fp_real sigma;
     fp_real wdone;     /* their weights (upper bounds of int h) */
     fp_real wtot;      /* an upper bound of int h over the whole ray */
+    fp_real wfail;     /* the weight of the segment that asked for a finer level */
+    fp_real efail;     /* sigma exp(-od) there */
 } fp_lod_t;
 
 /* Weight of the path over [t, end], int h: an upper bound (h is monotone
@@ -535,25 +540,44 @@ FP_FN fp_real fp_rest_weight(fp_real y0, fp_real H, const fp_path_t *p, fp_real 
     return fmin(len * hmax, below + above) * (1 + (fp_real)1e-5);
 }
 
-/* What a segment of weight w may cost: the bound's share of the weight
- * done, or what is left of the bound spread over the weight left, the
- * larger; either keeps the sum of the costs within the bound. */
-FP_FN fp_real fp_lod_allowed(const fp_lod_t *lod, fp_real w)
+/* Whether a segment of weight w may cost `cost`: within the bound's share
+ * of the weight done, or within what is left of the bound spread over the
+ * weight left; either keeps the sum of the costs within the bound.  The
+ * second division only when the first share does not do. */
+FP_FN int fp_lod_fits(const fp_lod_t *lod, fp_real cost, fp_real w)
 {
-    fp_real share = lod->bound * fmin((fp_real)1, (lod->wdone + w) / lod->wtot) - lod->spent;
-    fp_real left = (lod->bound - lod->spent) * fmin((fp_real)1, w / (lod->wtot - lod->wdone));
-    return fmax(share, left);
+    if (cost <= lod->bound * fmin((fp_real)1, (lod->wdone + w) / lod->wtot) - lod->spent)
+        return 1;
+    return cost <= (lod->bound - lod->spent) * fmin((fp_real)1, w / (lod->wtot - lod->wdone));
 }
 
-/* The cell bound of level L's grid at cell (k, m) (0 on the finest). */
-FP_FN fp_real fp_lod_tmap(FP_CONSTANT const int *lvi, FP_GLOBAL const float *coef, int L, int k,
+/* An upper bound of exp(2 D), D >= 0: 1 + 4 D up to D = 1/4 (exp(x) <=
+ * 1 + x exp(x) <= 1 + 1.65 x for x = 2 D <= 1/2), without an exp. */
+FP_FN fp_real fp_lod_grow(fp_real D)
+{
+    return D <= (fp_real)0.25 ? 1 + 4 * D : exp(2 * D);
+}
+
+/* The cell bound of level L's grid at wrapped cell (k, m) (0 on the finest). */
+FP_FN fp_real fp_lod_cell(FP_CONSTANT const int *lvi, FP_GLOBAL const float *coef, int L, int k,
                           int m)
 {
     int off = lvi[L * FP_LI_STRIDE + FP_LI_TMAP];
     if (off < 0)
         return 0;
-    int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
-    return coef[off + (size_t)fp_wrap_index(m, ny) * nx + fp_wrap_index(k, nx)];
+    return coef[off + (size_t)m * lvi[L * FP_LI_STRIDE + FP_LI_NX] + k];
+}
+
+/* The cell bound of level L at the point t of path p. */
+FP_FN fp_real fp_lod_at(FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                        FP_GLOBAL const float *coef, int d, int L, const fp_path_t *p, fp_real t)
+{
+    fp_real kappa = (d & 1) ? (fp_real)0 : (fp_real)0.5, cell = lvf[L * FP_LR_STRIDE + FP_LR_CELL];
+    fp_real x = (p->u0 + t * p->du - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cell + kappa;
+    fp_real y = (p->v0 + t * p->dv - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cell + kappa;
+    return fp_lod_cell(lvi, coef, L,
+                       fp_wrap_index(fp_cell_of(x, p->du), lvi[L * FP_LI_STRIDE + FP_LI_NX]),
+                       fp_wrap_index(fp_cell_of(y, p->dv), lvi[L * FP_LI_STRIDE + FP_LI_NY]));
 }
 
 /* Integral of A_L times h(y) along p over [a, b], segment by segment (2D
@@ -639,13 +663,23 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             seg = fp_poly_exp_integral(P, d, u);
             E = exp(-u);
         }
+        /* sigma exp(-od) at the segment's start, for the bound's costs. */
+        fp_real se = bounded || coarser ? lod->sigma * exp(-lod->sigma * (od0 + sum)) : 0;
         if (bounded) {
             /* What integrating this segment on A_L instead of F may cost. */
             fp_real w = len * fmax(ha, ha * E);
-            fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L, k, m) * w;
-            fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
-            if (!(cost <= fp_lod_allowed(lod, w))) {
-                *L_next = L + 1;   /* again from t, one level finer */
+            int kc = kw + first, mc = mw + first;
+            kc = kc >= nx ? kc - nx : kc;
+            mc = mc >= ny ? mc - ny : mc;
+            fp_real tm = fp_lod_cell(lvi, coef, L, kc, mc);
+            fp_real cost = se * tm * w * fp_lod_grow(lod->sigma * tm * w);
+            if (!fp_lod_fits(lod, cost, w)) {
+                /* Finer from t: fp_fogmap_od jumps to the coarsest level
+                 * whose cell there would let a segment through, taken
+                 * half as long per level as this one. */
+                lod->wfail = w;
+                lod->efail = se;
+                *L_next = L + 1;
                 break;
             }
             lod->spent += cost;
@@ -664,19 +698,28 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         mw = mw >= ny ? mw - ny : mw < 0 ? mw + ny : mw;
         ty = stepy ? (m + (dydt > 0) - ys) * iy : ty;
         t = tn;
-        if (coarser && (guard & 7) == 7 && t < b) {
-            /* One level coarser where its cell's bound would have let this
-             * segment through with room for 8 of them. */
-            fp_real cc = lvf[(L - 1) * FP_LR_STRIDE + FP_LR_CELL];
-            fp_real xc = (p->u0 + t * p->du - lvf[(L - 1) * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cc +
-                         kappa;
-            fp_real yc = (p->v0 + t * p->dv - lvf[(L - 1) * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cc +
-                         kappa;
-            fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L - 1, fp_cell_of(xc, p->du),
-                                                 fp_cell_of(yc, p->dv)) * len * fmax(hc, ha);
-            fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
-            if (8 * cost <= fp_lod_allowed(lod, 8 * len * fmax(hc, ha))) {
-                *L_next = L - 1;
+        if (coarser && (guard & (FP_LOD_EVERY - 1)) == FP_LOD_EVERY - 1 && t < b && len > 0) {
+            /* Coarser where the ancestors of the cell the walk enters would
+             * let a segment twice as long per level through with half the
+             * room (so that the coarse walk's own check passes there, no
+             * back and forth); never right after a restart, whose first
+             * segment may be a sliver where rounding put the start in the
+             * cell before.  The ancestors' indices are the cell's halved:
+             * the grids nest (both wrapped). */
+            int kc = kw + first, mc = mw + first;
+            kc = kc >= nx ? kc - nx : kc;
+            mc = mc >= ny ? mc - ny : mc;
+            fp_real W = len * fmax(hc, ha);
+            int Lc = L;
+            while (Lc > 0) {
+                W *= 2;
+                fp_real tm = fp_lod_cell(lvi, coef, Lc - 1, kc >> (L - Lc + 1), mc >> (L - Lc + 1));
+                if (!fp_lod_fits(lod, 2 * se * tm * W, W))
+                    break;
+                Lc--;
+            }
+            if (Lc < L) {
+                *L_next = Lc;
                 break;
             }
         }
@@ -909,6 +952,8 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
     lod.spent = 0;
     lod.sigma = sigma;
     lod.wdone = 0;
+    lod.wfail = 0;
+    lod.efail = 0;
     lod.wtot = lod.bound > 0 ? fp_rest_weight(fp[FP_F_Y0], fp[FP_F_H], &p, a, b) : 1;
     /* Bounded: from the coarsest grid, finer where the bound asks. */
     int L = lod.bound > 0 ? 0 : nl - 1, d = (int)fp[FP_F_DEGREE];
@@ -927,6 +972,14 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
             int Ln;
             od += fp_grid_walk_any(fp, lvi, lvf, coef, d, L, L < Lcap, &q, t, fmin(pb, dmax[L]),
                                    od, od_max, &lod, &te, &Ln);
+            /* Finer: as far as the cell bounds at te ask, not one level at a
+             * time (the walk there checks its segments itself). */
+            for (fp_real w = (fp_real)0.5 * lod.wfail; Ln > L && Ln < Lcap; w *= (fp_real)0.5) {
+                fp_real tm = fp_lod_at(lvi, lvf, coef, d, Ln, &q, te);
+                if (fp_lod_fits(&lod, lod.efail * tm * w * fp_lod_grow(sigma * tm * w), w))
+                    break;
+                Ln++;
+            }
             L = Ln;
             t = te;
         }
