@@ -334,17 +334,18 @@ static int tail_maps_linear(const fp_fogmap_t *m, const float *fine, const float
             for (int i = 0; i < nf; i++)
                 rowmax[i] = (float)fabs((double)fine[(size_t)j * nf + i] -
                                         ((1 - fy) * r0[i] + fy * r1[i]));
+            /* (Comparisons rather than fmaxf: gcc calls libm for fmaxf.) */
             for (int k = 0; k < cx; k++) {
                 float v = rowmax[(size_t)((k + 1) * s) % nf];
                 for (int i = k * s; i < (k + 1) * s; i++)
-                    v = fmaxf(v, rowmax[i]);
+                    v = rowmax[i] > v ? rowmax[i] : v;
                 /* Fine row j lies in cell row j / s, and on the edge of the
                  * row below when it is a multiple of s. */
                 float *o = out + (size_t)m0 * cx + k;
-                *o = fmaxf(*o, v);
+                *o = v > *o ? v : *o;
                 if (j % s == 0) {
                     o = out + (size_t)((m0 + cy - 1) % cy) * cx + k;
-                    *o = fmaxf(*o, v);
+                    *o = v > *o ? v : *o;
                 }
             }
         }

@@ -614,7 +614,8 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_real ty = dydt != 0 ? (m + (dydt > 0) - ys) * iy : FP_INF;
     fp_real t = a, sum = 0, od0 = od, hc = 1;
     int bounded = lod->bound > 0 && finer && lvi[L * FP_LI_STRIDE + FP_LI_TMAP] >= 0;
-    int coarser = lod->bound > 0 && L > 0;
+    int coarser = lod->bound > 0 && L > 0, lod_fresh = 1;
+    fp_real se = 0;
     *L_next = L;
     for (int guard = 0; t < b && od0 + sum <= od_stop && guard < (1 << 24); guard++) {
         fp_real tn = fmin(fmin(tx, ty), fmin(b, t + lmax));
@@ -663,8 +664,12 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             seg = fp_poly_exp_integral(P, d, u);
             E = exp(-u);
         }
-        /* sigma exp(-od) at the segment's start, for the bound's costs. */
-        fp_real se = bounded || coarser ? lod->sigma * exp(-lod->sigma * (od0 + sum)) : 0;
+        /* sigma exp(-od) for the bound's costs, od at the segment's start:
+         * anew every 8th segment and after a falling one (A_L may be
+         * negative), so that od never fell since (the costs stay upper
+         * bounds), one exp for 8 segments. */
+        if ((bounded || coarser) && (lod_fresh || (guard & 7) == 0))
+            se = lod->sigma * exp(-lod->sigma * (od0 + sum));
         if (bounded) {
             /* What integrating this segment on A_L instead of F may cost. */
             fp_real w = len * fmax(ha, ha * E);
@@ -686,6 +691,7 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             lod->wdone += w;
         }
         sum += ha * len * seg;
+        lod_fresh = seg < 0;
         hc = ha * E;
         /* Step to the next cell where the segment ended on its edge. */
         int stepx = tx <= tn, stepy = ty <= tn;
