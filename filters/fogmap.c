@@ -38,9 +38,9 @@ const fp_option_t fp_fogmap_options[] = {
       "drop a detail level where its cells project below PX pixels (0 = off)", NULL, 0 },
     { "lod-bound", 0, FP_OPT_REAL, FM(lod_bound), 0, 0, "0", 0, 1, NULL, "DTAU",
       "walk a coarser sum of levels wherever the finer levels cannot change a ray's "
-      "transmittance by more than DTAU in all (each cell bounds them by their largest "
-      "coefficients reaching it, weighted by the height profile and the transmittance so "
-      "far; 0 = exact)", NULL, 0 },
+      "transmittance by more than DTAU in all (each cell bounds them: exactly for the linear "
+      "basis, by their largest coefficients reaching it otherwise; weighted by the height "
+      "profile and the transmittance so far; 0 = exact)", NULL, 0 },
     { "min-transmittance", 0, FP_OPT_REAL, FM(min_transmittance), 0, 0, "0", 0, 1, NULL, "T",
       "stop integrating a ray once its transmittance is below T (0 = never)", NULL, 0 },
     { "integrator", 0, FP_OPT_ENUM, FM(integrator), 0, 0, "exact", 0, 0,

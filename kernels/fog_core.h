@@ -500,18 +500,24 @@ FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, 
 }
 
 /* Bounded level of detail (--lod-bound).  Each cell of level l's grid
- * carries a bound of |F - A_l| there (the sum over the finer levels of
- * their largest |coefficient| reaching the cell; B-splines are >= 0 and
- * sum to 1; filters/fogmap.c), so a segment integrated on A_l instead of
- * F changes the optical depth by at most D = sigma bound w, w >= int h
- * over the segment, and tau by at most exp(-od) D exp(2 D), od the
- * optical depth computed before it (|tau - tau'| <= sum_i exp(-od'_<i)
- * exp(|da_i|) |da_i| telescoping, and od' falls at most by the D's).  A
- * segment is kept on the coarse grid only while these costs stay within
- * the bound times the share of the path's weight done; otherwise the walk
- * goes one level finer there, and tries one coarser every 8 segments. */
+ * carries a bound of |F - A_l| there (filters/fogmap.c: for the linear
+ * basis its exact largest value, at the finest nodes of the cell, 0 where
+ * A_l = F; for the other degrees the sum over the finer levels of their
+ * largest |coefficient| reaching the cell, B-splines being >= 0 and
+ * summing to 1), so a segment integrated on A_l instead of F changes the
+ * optical depth by at most D = sigma bound w, w >= int h over the segment,
+ * and tau by at most exp(-od) D exp(2 D), od the optical depth computed
+ * before it (|tau - tau'| <= sum_i exp(-od'_<i) exp(|da_i|) |da_i|
+ * telescoping, and od' falls at most by the D's).  A segment is kept on
+ * the coarse grid only while these costs stay within the bound times the
+ * share of the path's weight done (or what is left of the bound spread
+ * over the weight left); otherwise the walk goes finer there, straight to
+ * the coarsest level whose cell would let a segment of its length through
+ * (fp_fogmap_od), and every FP_LOD_EVERY segments tries the ancestors of
+ * its cell, as coarse as they let a segment through with room to spare. */
 #ifndef FP_LOD_EVERY
-#define FP_LOD_EVERY 16     /* segments between tries of a coarser level (a power of 2) */
+#define FP_LOD_EVERY 16    /* segments between tries of a coarser level (a power of 2, >= 2:
+                              never the first segment after a restart) */
 #endif
 typedef struct fp_lod_t {
     fp_real bound;     /* largest |dtau| allowed in all (0: exact) */
