@@ -514,9 +514,10 @@ FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, 
  * over the weight left); otherwise the walk goes finer there, straight to
  * the coarsest level whose cell would let a segment of its length through
  * (fp_fogmap_od), and every FP_LOD_EVERY segments tries the ancestors of
- * its cell, as coarse as they let a segment through with room to spare. */
+ * its cell, as coarse as they cost at most half the fair share of what is
+ * left (the period and the half: fewest segments on bench_lod's maps). */
 #ifndef FP_LOD_EVERY
-#define FP_LOD_EVERY 16    /* segments between tries of a coarser level (a power of 2, >= 2:
+#define FP_LOD_EVERY 32    /* segments between tries of a coarser level (a power of 2, >= 2:
                               never the first segment after a restart) */
 #endif
 typedef struct fp_lod_t {
@@ -711,25 +712,24 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         ty = stepy ? (m + (dydt > 0) - ys) * iy : ty;
         t = tn;
         if (coarser && (guard & (FP_LOD_EVERY - 1)) == FP_LOD_EVERY - 1 && t < b && len > 0) {
-            /* Coarser where the ancestors of the cell the walk enters would
-             * let a segment twice as long per level through with half the
-             * room (so that the coarse walk's own check passes there, no
-             * back and forth); never right after a restart, whose first
-             * segment may be a sliver where rounding put the start in the
-             * cell before.  The ancestors' indices are the cell's halved:
-             * the grids nest (both wrapped). */
+            /* Coarser where the ancestors of the cell the walk enters cost
+             * at most half of what is left of the bound spread over the
+             * weight left, per weight: the coarse walk then adds to the
+             * slack rather than spending it (spent slack would force the
+             * next refinement to the finest levels, hundreds of segments
+             * on a map with kinks).  Never right after a restart, whose
+             * first segment may be a sliver where rounding put the start
+             * in the cell before.  The ancestors' indices are the cell's
+             * halved: the grids nest (both wrapped). */
             int kc = kw + first, mc = mw + first;
             kc = kc >= nx ? kc - nx : kc;
             mc = mc >= ny ? mc - ny : mc;
-            fp_real W = len * fmax(hc, ha);
+            fp_real rest = lod->wtot - lod->wdone;
+            fp_real thr = rest > 0 ? (lod->bound - lod->spent) / (2 * se * rest) : (fp_real)-1;
             int Lc = L;
-            while (Lc > 0) {
-                W *= 2;
-                fp_real tm = fp_lod_cell(lvi, coef, Lc - 1, kc >> (L - Lc + 1), mc >> (L - Lc + 1));
-                if (!fp_lod_fits(lod, 2 * se * tm * W, W))
-                    break;
+            while (Lc > 0 &&
+                   fp_lod_cell(lvi, coef, Lc - 1, kc >> (L - Lc + 1), mc >> (L - Lc + 1)) <= thr)
                 Lc--;
-            }
             if (Lc < L) {
                 *L_next = Lc;
                 break;
