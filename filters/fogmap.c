@@ -38,9 +38,9 @@ const fp_option_t fp_fogmap_options[] = {
       "drop a detail level where its cells project below PX pixels (0 = off)", NULL, 0 },
     { "lod-bound", 0, FP_OPT_REAL, FM(lod_bound), 0, 0, "0", 0, 1, NULL, "DTAU",
       "walk a coarser sum of levels wherever the finer levels cannot change a ray's "
-      "transmittance by more than DTAU in all (each cell bounds them by their largest "
-      "coefficients reaching it, weighted by the height profile and the transmittance so "
-      "far; 0 = exact)", NULL, 0 },
+      "transmittance by more than DTAU in all (each cell bounds them: exactly for the linear "
+      "basis, by their largest coefficients reaching it otherwise; weighted by the height "
+      "profile and the transmittance so far; 0 = exact)", NULL, 0 },
     { "min-transmittance", 0, FP_OPT_REAL, FM(min_transmittance), 0, 0, "0", 0, 1, NULL, "T",
       "stop integrating a ray once its transmittance is below T (0 = never)", NULL, 0 },
     { "integrator", 0, FP_OPT_ENUM, FM(integrator), 0, 0, "exact", 0, 0,
@@ -274,6 +274,94 @@ static int tail_maps(const fp_fogmap_t *m, float **tm, size_t *ntm)
     return FP_OK;
 }
 
+/* The same bound, exact for the linear basis: F - A_l is bilinear on every
+ * finest cell (the knots of every A_l are finest-grid nodes), so its
+ * largest |.| over a level-l cell is the largest at the finest nodes in
+ * the cell and on its edges, where F is the fine grid's value and A_l the
+ * bilinear interpolation of its coefficients as the walk reads them
+ * (float).  0 where A_l = F over the whole cell: the walk stays coarse
+ * there at no cost.  `fine`: the padded fogmap (A_{nl-1}); `approx`:
+ * A_1 .. A_{nl-2} (approx_levels).  *tm as tail_maps'. */
+static int tail_maps_linear(const fp_fogmap_t *m, const float *fine, const float *approx,
+                            float **tm, size_t *ntm)
+{
+    int nl = m->num_levels, nf = m->dom_w, mf = m->dom_h;
+    *tm = NULL;
+    *ntm = 0;
+    for (int l = 0; l + 1 < nl; l++)
+        *ntm += (size_t)m->level[l].nx * m->level[l].ny;
+    if (*ntm == 0)
+        return FP_OK;
+    *tm = calloc(*ntm, sizeof **tm);
+    double *r0 = malloc((size_t)nf * sizeof *r0), *r1 = malloc((size_t)nf * sizeof *r1);
+    float *rowmax = malloc((size_t)nf * sizeof *rowmax);
+    if (!*tm || !r0 || !r1 || !rowmax) {
+        free(*tm);
+        *tm = NULL;
+        free(r0);
+        free(r1);
+        free(rowmax);
+        return fp_error("fogmap: out of memory");
+    }
+    size_t at = 0, ao = 0;
+    for (int l = 0; l + 1 < nl; l++) {
+        const fp_fog_level_t *lv = &m->level[l];
+        int cx = lv->nx, cy = lv->ny, s = 1 << (nl - 1 - l);
+        const float *a = l == 0 ? lv->coef : approx + ao;
+        float *out = *tm + at;
+        if (cx * s != nf || cy * s != mf) {
+            free(*tm);
+            *tm = NULL;
+            free(r0);
+            free(r1);
+            free(rowmax);
+            return fp_error("fogmap: level %d (%dx%d) does not tile the %dx%d domain", l, cx, cy,
+                            nf, mf);
+        }
+        for (int j = 0; j < mf; j++) {
+            /* A_l along fine row j: rows m0, m0 + 1 of its coefficients
+             * interpolated along U at every fine node, then along V. */
+            int m0 = j / s, m1 = (m0 + 1) % cy;
+            double fy = (double)(j % s) / s;
+            for (int i = 0; i < nf; i++) {
+                int k0 = i / s, k1 = (k0 + 1) % cx;
+                double fx = (double)(i % s) / s;
+                r0[i] = (1 - fx) * a[(size_t)m0 * cx + k0] + fx * a[(size_t)m0 * cx + k1];
+                r1[i] = (1 - fx) * a[(size_t)m1 * cx + k0] + fx * a[(size_t)m1 * cx + k1];
+            }
+            /* |F - A_l| at the nodes, then its max over each cell's span of
+             * nodes along U (s + 1 of them, both ends). */
+            for (int i = 0; i < nf; i++)
+                rowmax[i] = (float)fabs((double)fine[(size_t)j * nf + i] -
+                                        ((1 - fy) * r0[i] + fy * r1[i]));
+            /* (Comparisons rather than fmaxf: gcc calls libm for fmaxf.) */
+            for (int k = 0; k < cx; k++) {
+                float v = rowmax[(size_t)((k + 1) * s) % nf];
+                for (int i = k * s; i < (k + 1) * s; i++)
+                    v = rowmax[i] > v ? rowmax[i] : v;
+                /* Fine row j lies in cell row j / s, and on the edge of the
+                 * row below when it is a multiple of s. */
+                float *o = out + (size_t)m0 * cx + k;
+                *o = v > *o ? v : *o;
+                if (j % s == 0) {
+                    o = out + (size_t)((m0 + cy - 1) % cy) * cx + k;
+                    *o = v > *o ? v : *o;
+                }
+            }
+        }
+        /* Rounded up past the rounding of the differences above. */
+        for (size_t i = 0; i < (size_t)cx * cy; i++)
+            out[i] *= 1 + 1e-5f;
+        at += (size_t)cx * cy;
+        if (l > 0)
+            ao += (size_t)cx * cy;
+    }
+    free(r0);
+    free(r1);
+    free(rowmax);
+    return FP_OK;
+}
+
 static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_fog,
                         int deconstruct, fp_fog_tables_t *t)
 {
@@ -292,16 +380,22 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
     double tail[FP_LEVEL_TABLE] = { 0 };
     float *tmaps = NULL;
     size_t ntmaps = 0;
-    if (deconstruct && approx_levels(m, &approx, &napprox, tail))
+    fine.coef = padded_fine(img, m);
+    if (!fine.coef)
+        return fp_error("fogmap: out of memory");
+    if (deconstruct && approx_levels(m, &approx, &napprox, tail)) {
+        free(fine.coef);
         return FP_ERR;
-    if (deconstruct && tail_maps(m, &tmaps, &ntmaps)) {
+    }
+    if (deconstruct && (m->degree == 1 ? tail_maps_linear(m, fine.coef, approx, &tmaps, &ntmaps)
+                                       : tail_maps(m, &tmaps, &ntmaps))) {
+        free(fine.coef);
         free(approx);
         return FP_ERR;
     }
     t->coef = malloc((ncoef + napprox + ntmaps) * sizeof(float));
     t->occ = malloc(nocc + 1);
-    fine.coef = padded_fine(img, m);
-    if (!t->coef || !t->occ || !fine.coef) {
+    if (!t->coef || !t->occ) {
         free(fine.coef);
         free(approx);
         free(tmaps);

@@ -427,15 +427,24 @@ FP_TABLE fp_real fp_invfact[16] = {
     1.0 / 87178291200.0, 1.0 / 1307674368000.0 };
 
 /* sum_j c[j] z^j, j < FP_SEG_POW2, pairwise (Estrin): a few dependent
- * steps instead of one per term; c is overwritten. */
-FP_HOT fp_real fp_estrin(fp_real *c, fp_real z)
+ * steps instead of one per term.  Written out: as a loop over the halvings
+ * neither PoCL nor gcc unrolled it, and its partial sums went through
+ * memory, one store-to-load chain per step (half of the walk's time in
+ * perf).  The same pairs in the same order as that loop. */
+FP_HOT fp_real fp_estrin(const fp_real *c, fp_real z)
 {
-    for (int w = FP_SEG_POW2; w > 1; w /= 2) {
-        for (int i = 0; i < w / 2; i++)
-            c[i] = c[2 * i] + c[2 * i + 1] * z;
-        z *= z;
-    }
-    return c[0];
+    fp_real z2 = z * z, z4 = z2 * z2;
+    fp_real e0 = (c[0] + c[1] * z) + (c[2] + c[3] * z) * z2;
+    fp_real e1 = (c[4] + c[5] * z) + (c[6] + c[7] * z) * z2;
+#if FP_SEG_POW2 == 8
+    return e0 + e1 * z4;
+#elif FP_SEG_POW2 == 16
+    fp_real e2 = (c[8] + c[9] * z) + (c[10] + c[11] * z) * z2;
+    fp_real e3 = (c[12] + c[13] * z) + (c[14] + c[15] * z) * z2;
+    return (e0 + e1 * z4) + (e2 + e3 * z4) * (z4 * z4);
+#else
+#error "fp_estrin: FP_SEG_POW2 must be 8 or 16"
+#endif
 }
 
 /* 1 / n, n = 1..24. */
@@ -508,22 +517,34 @@ FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, 
 }
 
 /* Bounded level of detail (--lod-bound).  Each cell of level l's grid
- * carries a bound of |F - A_l| there (the sum over the finer levels of
- * their largest |coefficient| reaching the cell; B-splines are >= 0 and
- * sum to 1; filters/fogmap.c), so a segment integrated on A_l instead of
- * F changes the optical depth by at most D = sigma bound w, w >= int h
- * over the segment, and tau by at most exp(-od) D exp(2 D), od the
- * optical depth computed before it (|tau - tau'| <= sum_i exp(-od'_<i)
- * exp(|da_i|) |da_i| telescoping, and od' falls at most by the D's).  A
- * segment is kept on the coarse grid only while these costs stay within
- * the bound times the share of the path's weight done; otherwise the walk
- * goes one level finer there, and tries one coarser every 8 segments. */
+ * carries a bound of |F - A_l| there (filters/fogmap.c: for the linear
+ * basis its exact largest value, at the finest nodes of the cell, 0 where
+ * A_l = F; for the other degrees the sum over the finer levels of their
+ * largest |coefficient| reaching the cell, B-splines being >= 0 and
+ * summing to 1), so a segment integrated on A_l instead of F changes the
+ * optical depth by at most D = sigma bound w, w >= int h over the segment,
+ * and tau by at most exp(-od) D exp(2 D), od the optical depth computed
+ * before it (|tau - tau'| <= sum_i exp(-od'_<i) exp(|da_i|) |da_i|
+ * telescoping, and od' falls at most by the D's).  A segment is kept on
+ * the coarse grid only while these costs stay within the bound times the
+ * share of the path's weight done (or what is left of the bound spread
+ * over the weight left); otherwise the walk goes finer there, straight to
+ * the coarsest level whose cell would let a segment of its length through
+ * (fp_fogmap_od), and every FP_LOD_EVERY segments tries the ancestors of
+ * its cell, as coarse as they cost at most half the fair share of what is
+ * left (the period and the half: fewest segments on bench_lod's maps). */
+#ifndef FP_LOD_EVERY
+#define FP_LOD_EVERY 32    /* segments between tries of a coarser level (a power of 2, >= 2:
+                              never the first segment after a restart) */
+#endif
 typedef struct fp_lod_t {
     fp_real bound;     /* largest |dtau| allowed in all (0: exact) */
     fp_real spent;     /* the costs of the segments done */
     fp_real sigma;
     fp_real wdone;     /* their weights (upper bounds of int h) */
     fp_real wtot;      /* an upper bound of int h over the whole ray */
+    fp_real wfail;     /* the weight of the segment that asked for a finer level */
+    fp_real efail;     /* sigma exp(-od) there */
 } fp_lod_t;
 
 /* Weight of the path over [t, end], int h: an upper bound (h is monotone
@@ -543,25 +564,44 @@ FP_FN fp_real fp_rest_weight(fp_real y0, fp_real H, const fp_path_t *p, fp_real 
     return fmin(len * hmax, below + above) * (1 + (fp_real)1e-5);
 }
 
-/* What a segment of weight w may cost: the bound's share of the weight
- * done, or what is left of the bound spread over the weight left, the
- * larger; either keeps the sum of the costs within the bound. */
-FP_FN fp_real fp_lod_allowed(const fp_lod_t *lod, fp_real w)
+/* Whether a segment of weight w may cost `cost`: within the bound's share
+ * of the weight done, or within what is left of the bound spread over the
+ * weight left; either keeps the sum of the costs within the bound.  The
+ * second division only when the first share does not do. */
+FP_FN int fp_lod_fits(const fp_lod_t *lod, fp_real cost, fp_real w)
 {
-    fp_real share = lod->bound * fmin((fp_real)1, (lod->wdone + w) / lod->wtot) - lod->spent;
-    fp_real left = (lod->bound - lod->spent) * fmin((fp_real)1, w / (lod->wtot - lod->wdone));
-    return fmax(share, left);
+    if (cost <= lod->bound * fmin((fp_real)1, (lod->wdone + w) / lod->wtot) - lod->spent)
+        return 1;
+    return cost <= (lod->bound - lod->spent) * fmin((fp_real)1, w / (lod->wtot - lod->wdone));
 }
 
-/* The cell bound of level L's grid at cell (k, m) (0 on the finest). */
-FP_FN fp_real fp_lod_tmap(FP_CONSTANT const int *lvi, FP_GLOBAL const float *coef, int L, int k,
+/* An upper bound of exp(2 D), D >= 0: 1 + 4 D up to D = 1/4 (exp(x) <=
+ * 1 + x exp(x) <= 1 + 1.65 x for x = 2 D <= 1/2), without an exp. */
+FP_FN fp_real fp_lod_grow(fp_real D)
+{
+    return D <= (fp_real)0.25 ? 1 + 4 * D : exp(2 * D);
+}
+
+/* The cell bound of level L's grid at wrapped cell (k, m) (0 on the finest). */
+FP_FN fp_real fp_lod_cell(FP_CONSTANT const int *lvi, FP_GLOBAL const float *coef, int L, int k,
                           int m)
 {
     int off = lvi[L * FP_LI_STRIDE + FP_LI_TMAP];
     if (off < 0)
         return 0;
-    int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
-    return coef[off + (size_t)fp_wrap_index(m, ny) * nx + fp_wrap_index(k, nx)];
+    return coef[off + (size_t)m * lvi[L * FP_LI_STRIDE + FP_LI_NX] + k];
+}
+
+/* The cell bound of level L at the point t of path p. */
+FP_FN fp_real fp_lod_at(FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                        FP_GLOBAL const float *coef, int d, int L, const fp_path_t *p, fp_real t)
+{
+    fp_real kappa = (d & 1) ? (fp_real)0 : (fp_real)0.5, cell = lvf[L * FP_LR_STRIDE + FP_LR_CELL];
+    fp_real x = (p->u0 + t * p->du - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cell + kappa;
+    fp_real y = (p->v0 + t * p->dv - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cell + kappa;
+    return fp_lod_cell(lvi, coef, L,
+                       fp_wrap_index(fp_cell_of(x, p->du), lvi[L * FP_LI_STRIDE + FP_LI_NX]),
+                       fp_wrap_index(fp_cell_of(y, p->dv), lvi[L * FP_LI_STRIDE + FP_LI_NY]));
 }
 
 /* The DDA's state between calls of fp_grid_walk on one path and level
@@ -609,7 +649,8 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_real ty = dydt != 0 ? (m + (dydt > 0) - ys) * iy : FP_INF;
     fp_real t = a, sum = 0, od0 = od, hc = 1;
     int bounded = lod->bound > 0 && finer && lvi[L * FP_LI_STRIDE + FP_LI_TMAP] >= 0;
-    int coarser = lod->bound > 0 && L > 0;
+    int coarser = lod->bound > 0 && L > 0, lod_fresh = 1;
+    fp_real se = 0;
     *L_next = L;
     for (int guard = 0; t < b && od0 + sum <= od_stop && guard < (1 << 24); guard++) {
         fp_real tn = fmin(fmin(tx, ty), fmin(b, t + lmax));
@@ -658,19 +699,34 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             seg = fp_poly_exp_integral(P, d, u);
             E = exp(-u);
         }
+        /* sigma exp(-od) for the bound's costs, od at the segment's start:
+         * anew every 8th segment and after a falling one (A_L may be
+         * negative), so that od never fell since (the costs stay upper
+         * bounds), one exp for 8 segments. */
+        if ((bounded || coarser) && (lod_fresh || (guard & 7) == 0))
+            se = lod->sigma * exp(-lod->sigma * (od0 + sum));
         if (bounded) {
             /* What integrating this segment on A_L instead of F may cost. */
             fp_real w = len * fmax(ha, ha * E);
-            fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L, k, m) * w;
-            fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
-            if (!(cost <= fp_lod_allowed(lod, w))) {
-                *L_next = L + 1;   /* again from t, one level finer */
+            int kc = kw + first, mc = mw + first;
+            kc = kc >= nx ? kc - nx : kc;
+            mc = mc >= ny ? mc - ny : mc;
+            fp_real tm = fp_lod_cell(lvi, coef, L, kc, mc);
+            fp_real cost = se * tm * w * fp_lod_grow(lod->sigma * tm * w);
+            if (!fp_lod_fits(lod, cost, w)) {
+                /* Finer from t: fp_fogmap_od jumps to the coarsest level
+                 * whose cell there would let a segment through, taken
+                 * half as long per level as this one. */
+                lod->wfail = w;
+                lod->efail = se;
+                *L_next = L + 1;
                 break;
             }
             lod->spent += cost;
             lod->wdone += w;
         }
         sum += ha * len * seg;
+        lod_fresh = seg < 0;
         hc = ha * E;
         /* Step to the next cell where the segment ended on its edge. */
         int stepx = tx <= tn, stepy = ty <= tn;
@@ -683,19 +739,27 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         mw = mw >= ny ? mw - ny : mw < 0 ? mw + ny : mw;
         ty = stepy ? (m + (dydt > 0) - ys) * iy : ty;
         t = tn;
-        if (coarser && (guard & 7) == 7 && t < b) {
-            /* One level coarser where its cell's bound would have let this
-             * segment through with room for 8 of them. */
-            fp_real cc = lvf[(L - 1) * FP_LR_STRIDE + FP_LR_CELL];
-            fp_real xc = (p->u0 + t * p->du - lvf[(L - 1) * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cc +
-                         kappa;
-            fp_real yc = (p->v0 + t * p->dv - lvf[(L - 1) * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cc +
-                         kappa;
-            fp_real D = lod->sigma * fp_lod_tmap(lvi, coef, L - 1, fp_cell_of(xc, p->du),
-                                                 fp_cell_of(yc, p->dv)) * len * fmax(hc, ha);
-            fp_real cost = exp(-lod->sigma * (od0 + sum)) * D * exp(2 * D);
-            if (8 * cost <= fp_lod_allowed(lod, 8 * len * fmax(hc, ha))) {
-                *L_next = L - 1;
+        if (coarser && (guard & (FP_LOD_EVERY - 1)) == FP_LOD_EVERY - 1 && t < b && len > 0) {
+            /* Coarser where the ancestors of the cell the walk enters cost
+             * at most half of what is left of the bound spread over the
+             * weight left, per weight: the coarse walk then adds to the
+             * slack rather than spending it (spent slack would force the
+             * next refinement to the finest levels, hundreds of segments
+             * on a map with kinks).  Never right after a restart, whose
+             * first segment may be a sliver where rounding put the start
+             * in the cell before.  The ancestors' indices are the cell's
+             * halved: the grids nest (both wrapped). */
+            int kc = kw + first, mc = mw + first;
+            kc = kc >= nx ? kc - nx : kc;
+            mc = mc >= ny ? mc - ny : mc;
+            fp_real rest = lod->wtot - lod->wdone;
+            fp_real thr = rest > 0 ? (lod->bound - lod->spent) / (2 * se * rest) : (fp_real)-1;
+            int Lc = L;
+            while (Lc > 0 &&
+                   fp_lod_cell(lvi, coef, Lc - 1, kc >> (L - Lc + 1), mc >> (L - Lc + 1)) <= thr)
+                Lc--;
+            if (Lc < L) {
+                *L_next = Lc;
                 break;
             }
         }
@@ -956,6 +1020,8 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
     lod.spent = 0;
     lod.sigma = sigma;
     lod.wdone = 0;
+    lod.wfail = 0;
+    lod.efail = 0;
     lod.wtot = lod.bound > 0 ? fp_rest_weight(fp[FP_F_Y0], fp[FP_F_H], &p, a, b) : 1;
     /* Bounded: from the coarsest grid, finer where the bound asks. */
     int L = lod.bound > 0 ? 0 : nl - 1, d = (int)fp[FP_F_DEGREE];
@@ -972,10 +1038,18 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
             L = L < Lcap ? L : Lcap;
             fp_real te;
             int Ln;
-            fp_walk_t w;
-            w.live = 0;
+            fp_walk_t ws;
+            ws.live = 0;
             od += fp_grid_walk_any(fp, lvi, lvf, coef, d, L, L < Lcap, &q, t, fmin(pb, dmax[L]),
-                                   od, od_max, &lod, &w, &te, &Ln);
+                                   od, od_max, &lod, &ws, &te, &Ln);
+            /* Finer: as far as the cell bounds at te ask, not one level at a
+             * time (the walk there checks its segments itself). */
+            for (fp_real w = (fp_real)0.5 * lod.wfail; Ln > L && Ln < Lcap; w *= (fp_real)0.5) {
+                fp_real tm = fp_lod_at(lvi, lvf, coef, d, Ln, &q, te);
+                if (fp_lod_fits(&lod, lod.efail * tm * w * fp_lod_grow(sigma * tm * w), w))
+                    break;
+                Ln++;
+            }
             L = Ln;
             t = te;
         }

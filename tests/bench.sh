@@ -24,6 +24,11 @@ trap 'rm -rf "$tmp"' EXIT
   "$FP_BENCH_LIGHT" "$tmp/light/scene.0001.exr" "$tmp/light/shadow.0001.exr" "$tmp/light/fogmap.exr"
   echo
   "$FP_BENCH_LOOKS" "$tmp/hd" "$tmp/looks" && echo   # issue 12: the looks against their goals
+  # Issue 12 (b): --lod-bound on the looks' 4096x4096 map against the 64x64.
+  if [ -n "${FP_BENCH_LOD:-}" ]; then
+    "$FP_BENCH_LOD" "$tmp/looks/mid/scene.0001.exr" "$tmp/looks/mid/fogmap.exr" \
+      "$tmp/looks/fog4096.exr" && echo
+  fi
   # Fog self-shadowing: the default grid's cost and error (the looks' frames).
   if [ -n "${FP_BENCH_SELFSHADOW:-}" ]; then
     "$FP_BENCH_SELFSHADOW" "$tmp/looks/small" "$tmp/looks/mid" && echo

@@ -773,6 +773,130 @@ static void test_lod_bound(void **state)
     unmake(&st);
 }
 
+/* --lod-bound on large maps, the C reference and OpenCL against the exact C
+ * reference: never past the bound.  A 4096x4096 map made as bench_looks.c
+ * makes its own (a 64x64 map's bilinear surface at the 4096 map's pixel
+ * centers: kinks between the nodes of every finer level, detail in bands
+ * along them), and a 256x256 map of white noise (detail everywhere, on a
+ * smooth swell so that coarser levels can take some of it), both over a
+ * 120 x 120 fog-unit rectangle so that a ray crosses many cells. */
+static void lod_large_map(setup_t *st, int size, int levels, int smooth)
+{
+    memset(st, 0, sizeof *st);
+    fp_options_defaults(&st->p);
+    fp_params_t *p = &st->p;
+    p->fog.density = 0.05;
+    p->fog.height[0] = FY0;
+    p->fog.height[1] = FH;
+    p->fog.height[2] = INFINITY;
+    p->fogmap.basis = 1;
+    p->fogmap.levels = levels;
+    p->fogmap.rect[0] = -30;
+    p->fogmap.rect[1] = -20;
+    p->fogmap.rect[2] = 90;
+    p->fogmap.rect[3] = 100;
+    st->w = st->h = size;
+    st->img = malloc((size_t)size * size * sizeof(float));
+    if (smooth) {
+        float m64[64 * 64];
+        for (int i = 0; i < 64 * 64; i++)
+            m64[i] = (float)(2 * urand());
+        double r = size / 64.0;
+        for (int j = 0; j < size; j++) {
+            double y = fmin(fmax((j + 0.5) / r - 0.5, 0), 63);
+            int j0 = (int)fmin(floor(y), 62);
+            for (int i = 0; i < size; i++) {
+                double x = fmin(fmax((i + 0.5) / r - 0.5, 0), 63);
+                int i0 = (int)fmin(floor(x), 62);
+                double fx = x - i0, fy = y - j0;
+                const float *c = m64 + j0 * 64 + i0;
+                st->img[(size_t)j * size + i] =
+                    (float)((1 - fy) * ((1 - fx) * c[0] + fx * c[1]) +
+                            fy * ((1 - fx) * c[64] + fx * c[65]));
+            }
+        }
+    } else {
+        for (int j = 0; j < size; j++)
+            for (int i = 0; i < size; i++)
+                st->img[(size_t)j * size + i] =
+                    (float)(1 + 0.8 * sin(i * 0.05) * cos(j * 0.04) + 0.01 * urand());
+    }
+    assert_int_equal(fp_integrate_commit(p, &st->d), FP_OK);
+    assert_int_equal(fp_fogmap_setup(p, NULL, st->img, size, size, &st->s, &st->d), FP_OK);
+}
+
+static void test_lod_bound_large(void **state)
+{
+    (void)state;
+    fp_cl_t *cl = NULL;
+    fp_integrate_cl_t s;
+    int have_cl = fp_cl_open(NULL, &cl) == FP_OK;
+    if (have_cl)
+        assert_int_equal(fp_integrate_cl_init(cl, &s), FP_OK);
+    const int vw = 48, vh = 32;
+    size_t n = (size_t)vw * vh;
+    float *depth = malloc(n * sizeof(float)), *ref = malloc(n * 4 * sizeof(float)),
+          *got = malloc(n * 4 * sizeof(float));
+    fp_view_t v;
+    assert_int_equal(make_view(&v, vw, vh, 6, -12), 0);
+    for (size_t i = 0; i < n; i++)
+        depth[i] = urand() < 0.1 ? INFINITY : (float)pow(10, 0.5 + 1.5 * urand());
+    for (int map = 0; map < 2; map++) {
+        setup_t st;
+        lod_large_map(&st, map == 0 ? 4096 : 256, map == 0 ? 9 : 6, map == 0);
+        const char *name = map == 0 ? "4096x4096 (kinks)" : "256x256 noise";
+        if (have_cl)
+            assert_int_equal(fp_integrate_process(&st.d, &v, depth, ref, NULL), FP_OK);
+        const double bounds[] = { 1e-3, 1e-4 };
+        for (size_t b = 0; b < FP_ARRAY_LEN(bounds); b++) {
+            fp_integrate_data_t lod = st.d;
+            lod.fp[FP_F_LOD_BOUND] = bounds[b];
+            double worst = 0;
+            int changed = 0;
+            for (int k = 0; k < 150; k++) {
+                double o[3], dir[3], len;
+                random_ray(k, o, dir, &len);
+                len = k % 5 == 0 ? INFINITY : len * 3;
+                double t = exp(-fp_integrate_optical_depth(&st.d, o, dir, len, 0));
+                double e = fabs(exp(-fp_integrate_optical_depth(&lod, o, dir, len, 0)) - t);
+                worst = fmax(worst, e);
+                changed += e > 1e-9;
+            }
+            print_message("%s --lod-bound %g: C max |dtau| against exact %.2e over 150 rays, "
+                          "%d changed\n", name, bounds[b], worst, changed);
+            if (!(worst <= bounds[b]))
+                fail_msg("%s --lod-bound %g: C max |dtau| %.3e", name, bounds[b], worst);
+            /* The bound is used, not only kept (on the noise, whose every
+             * level carries detail, only the larger one drops much). */
+            if (map == 0 || bounds[b] >= 1e-3)
+                assert_true(changed >= 10);
+            if (!have_cl)
+                continue;
+            /* OpenCL (single precision) against the exact C reference: the
+             * bound plus test_opencl_parity's tolerance of the exact walk. */
+            assert_int_equal(fp_integrate_process_cl(&s, &lod, &v, depth, got), FP_OK);
+            double cw = 0;
+            for (size_t i = 0; i < n; i++) {
+                double e = fabs((double)got[4 * i + 3] - ref[4 * i + 3]);
+                cw = fmax(cw, isnan(e) ? INFINITY : e);
+            }
+            print_message("%s --lod-bound %g: OpenCL max |dtau| against the exact C reference "
+                          "%.2e over %zu pixels (tolerance the bound + 1e-5)\n", name, bounds[b],
+                          cw, n);
+            if (!(cw <= bounds[b] + 1e-5))
+                fail_msg("%s --lod-bound %g: OpenCL max |dtau| %.3e", name, bounds[b], cw);
+        }
+        unmake(&st);
+    }
+    free(depth);
+    free(ref);
+    free(got);
+    if (have_cl) {
+        fp_integrate_cl_release(&s);
+        fp_cl_close(cl);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -787,6 +911,7 @@ int main(void)
         cmocka_unit_test(test_walk_matches_levels),
         cmocka_unit_test(test_cursor_matches_fog_od),
         cmocka_unit_test(test_lod_bound),
+        cmocka_unit_test(test_lod_bound_large),
         /* Last: the random numbers it draws leave the others' as they were. */
         cmocka_unit_test(test_cursor_opencl),
     };
