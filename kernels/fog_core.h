@@ -685,14 +685,21 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             fp_real P0 = c[0] + g1 * px + (g2 + g3 * px) * py;
             fp_real P1 = g1 * qx + g2 * qy + g3 * (px * qy + qx * py);
             fp_real P2 = g3 * qx * qy;
-            fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
-            for (int j = 0; j < FP_SEG_POW2; j++) {
-                fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
-                cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
-                ce[j] = f;
+            if (lam == 0) {
+                /* Fog without a falloff (H infinite): u = 0, the series'
+                 * first term alone (the same sum), h constant.  lam is the
+                 * same for every ray of such fog, so lanes do not diverge. */
+                seg = P0 * fp_recip[0] + P1 * fp_recip[1] + P2 * fp_recip[2];
+            } else {
+                fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
+                for (int j = 0; j < FP_SEG_POW2; j++) {
+                    fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
+                    cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
+                    ce[j] = f;
+                }
+                seg = fp_estrin(cs, -u);
+                E = fp_estrin(ce, -u);
             }
-            seg = fp_estrin(cs, -u);
-            E = fp_estrin(ce, -u);
         } else {
             fp_real P[7];
             fp_cell_poly(d, c, px, qx, py, qy, P);
