@@ -20,16 +20,11 @@
 #include "fp.h"
 #include "integrate.h"
 #include "options.h"
+#include "scatter.h"
+
+#include "bench_util.h"
 
 #include "fog_core.h"
-
-static double cpu_s(void)
-{
-    struct rusage r;
-    getrusage(RUSAGE_SELF, &r);
-    return r.ru_utime.tv_sec + r.ru_utime.tv_usec * 1e-6 + r.ru_stime.tv_sec +
-           r.ru_stime.tv_usec * 1e-6;
-}
 
 typedef struct frame_t {
     fp_params_t p;

@@ -30,6 +30,9 @@
 #include "integrate.h"
 #include "oiio_bridge.h"
 #include "options.h"
+#include "scatter.h"
+
+#include "bench_util.h"
 
 #include "fog_core.h"
 
@@ -37,14 +40,6 @@
 
 static fp_cl_t *cl;
 static fp_integrate_cl_t icl;
-
-static double cpu_s(void)
-{
-    struct rusage r;
-    getrusage(RUSAGE_SELF, &r);
-    return r.ru_utime.tv_sec + r.ru_utime.tv_usec * 1e-6 + r.ru_stime.tv_sec +
-           r.ru_stime.tv_usec * 1e-6;
-}
 
 typedef struct frame_t {
     fp_params_t p;

@@ -36,14 +36,6 @@
 
 #define REPS 3
 
-static double cpu_s(void)
-{
-    struct rusage ru;
-    getrusage(RUSAGE_SELF, &ru);
-    return ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6 + ru.ru_stime.tv_sec +
-           ru.ru_stime.tv_usec * 1e-6;
-}
-
 typedef struct frame_t {
     fp_frame_t *frame;
     fp_view_t view;

@@ -1,8 +1,19 @@
 /* fogpipe benchmarks: what the bench programs share (bench_light,
- * bench_looks, bench_selfshadow).  Header-only; include after the
+ * bench_looks, bench_selfshadow, bench_fogmap, bench_lod).  Header-only; include after the
  * fogpipe headers (fogmap.h, integrate.h, options.h, scatter.h). */
 #ifndef FP_BENCH_UTIL_H
 #define FP_BENCH_UTIL_H
+
+#include <sys/resource.h>
+
+/* CPU seconds of this process so far (user + sys, every thread). */
+static inline double cpu_s(void)
+{
+    struct rusage r;
+    getrusage(RUSAGE_SELF, &r);
+    return r.ru_utime.tv_sec + r.ru_utime.tv_usec * 1e-6 + r.ru_stime.tv_sec +
+           r.ru_stime.tv_usec * 1e-6;
+}
 
 /* A look: the options and the stages they commit. */
 typedef struct look_t {

@@ -1,4 +1,4 @@
-/* Helpers shared by the EXR tests (tests/test_exrio.c, tests/test_dwa.c):
+/* Helpers shared by the EXR tests (tests/test_exrio.c, test_dwa.c, test_zip.c):
  * half conversion, sample planes of each pixel type, chunk counting, files
  * in the test's directory `tdir`, stderr capture.  Included once per test
  * program; static inline so that a test need not use them all. */
@@ -13,6 +13,7 @@
 
 #include <fcntl.h>
 #include <stdio.h>
+#include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -23,6 +24,27 @@
 #include "fp.h"
 
 static char tdir[4096];
+
+/* The test program's directory, $FP_TMP/NAME.XXXXXX (/tmp without
+ * FP_TMP), and its removal with the stderr capture's file: a cmocka
+ * group's set-up and tear-down. */
+static inline int tdir_make(const char *name)
+{
+    const char *base = getenv("FP_TMP");
+    if (!base || !*base)
+        base = "/tmp";
+    mkdir(base, 0777);
+    snprintf(tdir, sizeof tdir, "%s/%s.XXXXXX", base, name);
+    return mkdtemp(tdir) ? 0 : -1;
+}
+
+static inline int tdir_remove(void)
+{
+    char p[4200];
+    snprintf(p, sizeof p, "%s/stderr.txt", tdir);
+    unlink(p);
+    return rmdir(tdir);
+}
 
 /* ------------------------------------------------------------ helpers */
 

@@ -508,21 +508,13 @@ static void test_zip_corrupt(void **state)
 static int setup_group(void **state)
 {
     (void) state;
-    const char *base = getenv("FP_TMP");
-    if (!base || !*base)
-        base = "/tmp";
-    mkdir(base, 0777);
-    snprintf(tdir, sizeof tdir, "%s/test_zip.XXXXXX", base);
-    return mkdtemp(tdir) ? 0 : -1;
+    return tdir_make("test_zip");
 }
 
 static int teardown_group(void **state)
 {
     (void) state;
-    char p[4200];
-    path_in(p, sizeof p, "stderr.txt");
-    unlink(p);
-    return rmdir(tdir);
+    return tdir_remove();
 }
 
 int main(void)
