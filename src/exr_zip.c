@@ -21,9 +21,11 @@
 #include <emmintrin.h>
 #endif
 
-/* zlib's Z_DEFAULT_COMPRESSION (-1), what OpenEXR uses unless the part's
- * zip level is set, is level 6; libdeflate's levels 0-9 match zlib's. */
-#define FP_ZIP_DEFAULT_LEVEL 6
+/* The level unless the part's zip level is set: OpenEXR's own default
+ * since it deflates with libdeflate (3.2 on, EXR_DEFAULT_ZLIB_COMPRESS_LEVEL
+ * in its compression.c: "better trade off of speed vs size"), so fogpipe
+ * writes what current OpenEXR writes.  OpenEXR 3.1's zlib used 6. */
+#define FP_ZIP_DEFAULT_LEVEL 4
 
 static atomic_int zip_enabled = 1;
 
