@@ -315,15 +315,10 @@ int main(int argc, char **argv)
     b.fogmap = argv[3];
     fp_params_t p0;
     fp_options_defaults(&p0);
-    fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
-    fp_camera_t cam;
-    if (fp_exr_read_file(argv[1], 1, &sel, &b.frame))
-        return 1;
-    const fp_frame_info_t *info = fp_frame_info(b.frame);
-    if (fp_camera_resolve(&p0, info, argv[1], 1, &cam) ||
-        fp_view_setup(&cam, &p0, info, &b.view) || fp_cl_open(NULL, &b.cl) ||
+    if (bench_frame_view(argv[1], &p0, &b.frame, &b.view) || fp_cl_open(NULL, &b.cl) ||
         fp_integrate_cl_init(b.cl, &b.icl) || fp_scatter_cl_init(b.cl, &b.scl))
         return 1;
+    const fp_frame_info_t *info = fp_frame_info(b.frame);
     b.n = (size_t)info->width * info->height;
     b.depth = fp_frame_depth(b.frame);
     b.got = malloc(b.n * 4 * sizeof(float));

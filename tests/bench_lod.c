@@ -55,14 +55,9 @@ static int open_frame(const char *path, frame_t *f)
 {
     memset(f, 0, sizeof *f);
     fp_options_defaults(&f->p);
-    fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
-    fp_camera_t cam;
-    if (fp_exr_read_file(path, 1, &sel, &f->frame))
+    if (bench_frame_view(path, &f->p, &f->frame, &f->view))
         return FP_ERR;
-    const fp_frame_info_t *info = fp_frame_info(f->frame);
-    if (fp_camera_resolve(&f->p, info, path, 1, &cam) || fp_view_setup(&cam, &f->p, info, &f->view))
-        return FP_ERR;
-    f->n = (size_t)info->width * info->height;
+    f->n = (size_t)f->view.width * f->view.height;
     f->depth = fp_frame_depth(f->frame);
     f->got = malloc(f->n * 4 * sizeof(float));
     f->ref = malloc((f->n / STEP + 1) * sizeof(double));

@@ -231,17 +231,9 @@ static int frame1_open(const set_t *s, size_t target, frame1_t *f)
     memset(f, 0, sizeof *f);
     char path[4200];
     snprintf(path, sizeof path, "%s/scene.0001.exr", s->dir);
-    fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
     fp_params_t p0;
     fp_options_defaults(&p0);
-    fp_camera_t cam;
-    int rc = fp_exr_read_file(path, 1, &sel, &f->frame);
-    if (rc == FP_OK) {
-        const fp_frame_info_t *info = fp_frame_info(f->frame);
-        rc = fp_camera_resolve(&p0, info, path, 1, &cam);
-        if (rc == FP_OK)
-            rc = fp_view_setup(&cam, &p0, info, &f->view);
-    }
+    int rc = bench_frame_view(path, &p0, &f->frame, &f->view);
     fp_options_free(&p0);
     if (rc)
         return rc;

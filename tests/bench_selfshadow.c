@@ -190,17 +190,9 @@ int main(int argc, char **argv)
         snprintf(path, sizeof path, "%s/scene.0001.exr", argv[a]);
         snprintf(f.shadow, sizeof f.shadow, "%s/shadow.####.exr", argv[a]);
         snprintf(f.fogmap, sizeof f.fogmap, "%s/fogmap.exr", argv[a]);
-        fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
         fp_params_t p0;
         fp_options_defaults(&p0);
-        fp_camera_t cam;
-        int r = fp_exr_read_file(path, 1, &sel, &f.frame);
-        if (r == FP_OK) {
-            const fp_frame_info_t *info = fp_frame_info(f.frame);
-            r = fp_camera_resolve(&p0, info, path, 1, &cam);
-            if (r == FP_OK)
-                r = fp_view_setup(&cam, &p0, info, &f.view);
-        }
+        int r = bench_frame_view(path, &p0, &f.frame, &f.view);
         fp_options_free(&p0);
         if (r) {
             fprintf(stderr, "bench_selfshadow: failed (the message above)\n");

@@ -1,6 +1,7 @@
 /* fogpipe benchmarks: what the bench programs share (bench_light,
  * bench_looks, bench_selfshadow, bench_fogmap, bench_lod).  Header-only; include after the
- * fogpipe headers (fogmap.h, integrate.h, options.h, scatter.h). */
+ * fogpipe headers (camera.h, exrio.h, fogmap.h, integrate.h, options.h,
+ * scatter.h). */
 #ifndef FP_BENCH_UTIL_H
 #define FP_BENCH_UTIL_H
 
@@ -13,6 +14,21 @@ static inline double cpu_s(void)
     getrusage(RUSAGE_SELF, &r);
     return r.ru_utime.tv_sec + r.ru_utime.tv_usec * 1e-6 + r.ru_stime.tv_sec +
            r.ru_stime.tv_usec * 1e-6;
+}
+
+/* Frame 1 of the EXR at path and the view its camera gives under p's
+ * options: what every bench reads its frames with. */
+static inline int bench_frame_view(const char *path, fp_params_t *p, fp_frame_t **frame,
+                                   fp_view_t *view)
+{
+    fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
+    fp_camera_t cam;
+    if (fp_exr_read_file(path, 1, &sel, frame))
+        return FP_ERR;
+    const fp_frame_info_t *info = fp_frame_info(*frame);
+    if (fp_camera_resolve(p, info, path, 1, &cam) || fp_view_setup(&cam, p, info, view))
+        return FP_ERR;
+    return FP_OK;
 }
 
 /* A look: the options and the stages they commit. */
