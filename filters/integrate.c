@@ -191,7 +191,8 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s)
     if (fp_cl_program(cl, "integrate", "-cl-std=CL1.2", &prog) ||
         fp_cl_kernel(prog, "integrate_fog", &s->kernel) ||
         fp_cl_kernel(prog, "integrate_height", &s->height) ||
-        fp_cl_kernel(prog, "integrate_height_list", &s->height_list))
+        fp_cl_kernel(prog, "integrate_height_list", &s->height_list) ||
+        fp_cl_kernel(prog, "integrate_height_over", &s->height_over))
         return FP_ERR;
     cl_int err;
     cl_context ctx = fp_cl_context(cl);
@@ -236,8 +237,11 @@ static int run_read_layer(fp_integrate_cl_t *s, cl_kernel k, cl_uint dims, const
     cl_command_queue q = fp_cl_queue(s->cl);
     size_t bytes = nout * 4 * sizeof(float);
     if (in_place && s->host_align && (uintptr_t)fog % s->host_align == 0) {
+        /* in_place 2: the kernel also reads what `fog` holds. */
         cl_int err;
-        cl_mem out = clCreateBuffer(fp_cl_context(s->cl), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
+        cl_mem out = clCreateBuffer(fp_cl_context(s->cl),
+                                    (in_place == 2 ? CL_MEM_READ_WRITE : CL_MEM_WRITE_ONLY) |
+                                        CL_MEM_USE_HOST_PTR,
                                     bytes, fog, &err);
         if (fp_cl_check(err, "integrate: fog layer in host memory"))
             return FP_ERR;
@@ -359,7 +363,7 @@ static int upload_pixels(fp_integrate_cl_t *s, const int *pix, size_t npix);
 /* Fog without a fogmap: integrate_height(_list), 16 pixels per work-item
  * (kernels/integrate.cl), with the arguments of integrate_fog. */
 static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix, size_t npix,
-                         cl_float4 color, float *fog)
+                         cl_float4 color, float *fog, int over)
 {
     const size_t lanes = 16;   /* FP_SIMD in kernels/fog_core.h */
     cl_int w = v->width, h = v->height;
@@ -369,7 +373,7 @@ static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pi
         return fp_error("integrate_height: %zu pixels listed, the frame has %d", npix, w * h);
     if (pix && npix == 0)
         return FP_OK;
-    cl_kernel k = npix ? s->height_list : s->height;
+    cl_kernel k = over ? s->height_over : npix ? s->height_list : s->height;
     cl_int cnpix = (cl_int)npix;
     if (upload_pixels(s, pix, npix) || FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->fog) ||
         FP_CL_ARG(k, 2, s->view) || FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) ||
@@ -382,8 +386,8 @@ static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pi
         global[0] = (npix + lanes - 1) / lanes;
         global[1] = 1;
     }
-    return run_read_layer(s, k, npix ? 1 : 2, global, NULL, npix ? npix : (size_t)w * h, fog, 1,
-                          "integrate_height");
+    return run_read_layer(s, k, npix ? 1 : 2, global, NULL, npix ? npix : (size_t)w * h, fog,
+                          over ? 2 : 1, over ? "integrate_height_over" : "integrate_height");
 }
 
 int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
@@ -400,8 +404,27 @@ int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
      * orthographic camera's rays start on its plane, and go through
      * integrate_fog (fp_view_origin_at). */
     if (d->fp[FP_F_HAS_MAP] == 0 && !v->ortho)
-        return launch_height(s, v, pix, npix, color, fog);
+        return launch_height(s, v, pix, npix, color, fog, 0);
     return fp_integrate_cl_launch(s, s->kernel, v, pix, npix, fog, "integrate_fog");
+}
+
+int fp_integrate_over_ok(const fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                         const fp_view_t *v, const float *rgba)
+{
+    return s->host_align && s->height_over && (uintptr_t)rgba % s->host_align == 0 &&
+           d->fp[FP_F_HAS_MAP] == 0 && !v->ortho;
+}
+
+int fp_integrate_over_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d, const fp_view_t *v,
+                         const float *depth, float *rgba)
+{
+    if (!fp_integrate_over_ok(s, d, v, rgba))
+        return fp_error("integrate_height_over: the device cannot work in this frame's memory");
+    if (fp_integrate_cl_prepare(s, d, v, depth))
+        return FP_ERR;
+    cl_float4 color = { { (float)d->fog_color[0], (float)d->fog_color[1],
+                          (float)d->fog_color[2], 0 } };
+    return launch_height(s, v, NULL, 0, color, rgba, 1);
 }
 
 /* The pixel list on the device (a one-entry buffer when there is none:
@@ -461,7 +484,7 @@ void fp_integrate_cl_release(fp_integrate_cl_t *s)
 {
     cl_mem *mems[] = { &s->depth, &s->fog, &s->view, &s->params, &s->lvi, &s->lvf, &s->coef,
                        &s->occ, &s->pix };
-    cl_kernel kernels[] = { s->kernel, s->height, s->height_list };
+    cl_kernel kernels[] = { s->kernel, s->height, s->height_list, s->height_over };
     for (size_t i = 0; i < FP_ARRAY_LEN(kernels); i++)
         if (kernels[i])
             clReleaseKernel(kernels[i]);

@@ -74,6 +74,7 @@ typedef struct fp_integrate_cl_t {
     fp_cl_t *cl;
     cl_kernel kernel;
     cl_kernel height, height_list;        /* fog without a fogmap: branch-free, SIMD on PoCL */
+    cl_kernel height_over;                /* the same, composited over the plate in place */
     cl_mem depth, fog, view, params, lvi, lvf, coef, occ;
     cl_mem pix;                           /* the pixel list of a list launch */
     size_t capacity;      /* pixels the buffers hold */
@@ -102,6 +103,16 @@ int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
 int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                            const fp_view_t *v, const float *depth, const int *pix, size_t npix,
                            float *fog);
+/* Fog without a fogmap composited over the plate on the device, in place:
+ * rgba (RGBA, the working space) becomes tau * rgb + S per pixel, alpha
+ * kept, bit for bit what fp_integrate_pixels_cl and fp_composite_process
+ * give, without the fog layer.  Only where fp_integrate_over_ok: the
+ * device works in the host's memory, rgba aligned as it wants, no fogmap,
+ * a perspective view. */
+int fp_integrate_over_ok(const fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                         const fp_view_t *v, const float *rgba);
+int fp_integrate_over_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d, const fp_view_t *v,
+                         const float *depth, float *rgba);
 void fp_integrate_cl_release(fp_integrate_cl_t *s);
 
 #endif

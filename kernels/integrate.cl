@@ -146,6 +146,70 @@ __kernel void integrate_height(__global const float *restrict depth,
     height_fog_store(fog_out + 4 * (row + x0), n, r, g, b, t);
 }
 
+/* integrate_height with the composite of filters/composite.c done here,
+ * on a device in the host's memory: `rgba` (the plate in the working
+ * space, argument 1 where integrate_height has its layer) becomes
+ * tau * rgb + S, alpha kept, and no fog layer is written (16 bytes a
+ * pixel less to write, and the host's composite pass gone: 32 bytes a
+ * pixel it read).  No contraction into fma: the same roundings as
+ * fp_composite_process, so the frame is the same to the bit. */
+__kernel void integrate_height_over(__global const float *restrict depth,
+                                    __global float *restrict rgba,
+                                    __constant const float *restrict view, const int width,
+                                    const int height, __constant const float *restrict fp,
+                                    __constant const int *lvi, __constant const float *lvf,
+                                    __global const float *coef, __global const uchar *occ,
+                                    __global const int *pix, const int npix, const float4 fog_color)
+{
+#pragma OPENCL FP_CONTRACT OFF
+    int x0 = (int)get_global_id(0) * FP_SIMD, y = get_global_id(1);
+    if (x0 >= width || y >= height)
+        return;
+    size_t row = (size_t)y * width;
+    int n = min(FP_SIMD, width - x0);
+    float16 d;
+    if (n == FP_SIMD) {
+        d = vload16(0, depth + row + x0);
+    } else {
+        float ld[16];
+        for (int k = 0; k < FP_SIMD; k++)
+            ld[k] = depth[row + x0 + min(k, n - 1)];
+        d = vload16(0, ld);
+    }
+    float16 r, g, b, t;
+    height_fog_lanes(view, fp, min((float)x0 + FP_LANES, (float)(width - 1)), (float16)((float)y),
+                     d, fog_color, &r, &g, &b, &t);
+    __global float *out = rgba + 4 * (row + x0);
+    if (n == FP_SIMD) {
+        /* Four pixels per float16: tau and S per channel, alpha lanes
+         * passed through by the select (its bits kept, -0 and NaN too). */
+        const int16 alpha = (int16)(0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1);
+        float16 c0 = vload16(0, out), c1 = vload16(1, out), c2 = vload16(2, out),
+                c3 = vload16(3, out);
+        float16 s0 = FP_RGBA4(r, g, b, t, 0, 1, 2, 3), s1 = FP_RGBA4(r, g, b, t, 4, 5, 6, 7),
+                s2 = FP_RGBA4(r, g, b, t, 8, 9, a, b), s3 = FP_RGBA4(r, g, b, t, c, d, e, f);
+        float16 t0 = FP_RGBA4(t, t, t, t, 0, 1, 2, 3), t1 = FP_RGBA4(t, t, t, t, 4, 5, 6, 7),
+                t2 = FP_RGBA4(t, t, t, t, 8, 9, a, b), t3 = FP_RGBA4(t, t, t, t, c, d, e, f);
+        float16 p0 = t0 * c0, p1 = t1 * c1, p2 = t2 * c2, p3 = t3 * c3;
+        vstore16(select(p0 + s0, c0, alpha), 0, out);
+        vstore16(select(p1 + s1, c1, alpha), 1, out);
+        vstore16(select(p2 + s2, c2, alpha), 2, out);
+        vstore16(select(p3 + s3, c3, alpha), 3, out);
+        return;
+    }
+    float lr[16], lg[16], lb[16], lt[16];
+    vstore16(r, 0, lr);
+    vstore16(g, 0, lg);
+    vstore16(b, 0, lb);
+    vstore16(t, 0, lt);
+    for (int k = 0; k < n; k++) {
+        float pr = lt[k] * out[4 * k], pg = lt[k] * out[4 * k + 1], pb = lt[k] * out[4 * k + 2];
+        out[4 * k] = pr + lr[k];
+        out[4 * k + 1] = pg + lg[k];
+        out[4 * k + 2] = pb + lb[k];
+    }
+}
+
 /* The pixels pix[0 .. npix) (indices y * width + x), results in list
  * order, 16 per work-item. */
 __kernel void integrate_height_list(__global const float *restrict depth,

@@ -842,12 +842,16 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
     size_t h = (size_t) (mp->dw.max.y - mp->dw.min.y + 1);
     /* Colour is decoded to float by the library, depth converted chunk by
      * chunk as they are decoded (to_float_rect), by the thread that decoded
-     * the chunk.  Colour is written from rgba, so its bytes are not kept. */
-    if (f->color_part >= 0 && !(f->rgba = malloc(w * h * 4 * sizeof(float)))) {
+     * the chunk.  Colour is written from rgba, so its bytes are not kept.
+     * Both page-aligned: a device in the host's memory works in them as
+     * they are (filters/integrate.h, fp_integrate_over_ok). */
+    if (f->color_part >= 0 && posix_memalign((void **)&f->rgba, 4096, w * h * 4 * sizeof(float))) {
+        f->rgba = NULL;
         fp_error("%s: frame %ld: out of memory", where, frame);
         goto done;
     }
-    if (f->depth_part >= 0 && !(f->depth = malloc(w * h * sizeof(float)))) {
+    if (f->depth_part >= 0 && posix_memalign((void **)&f->depth, 4096, w * h * sizeof(float))) {
+        f->depth = NULL;
         fp_error("%s: frame %ld: out of memory", where, frame);
         goto done;
     }

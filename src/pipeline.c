@@ -310,7 +310,8 @@ done:
  * library's frames from memory (fp_session_frame). */
 static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t *info,
                          float *rgba, const float *depth, const char *in_name, long frame,
-                         float *fog, fp_color_frame_t *color, double *ms, double *decompose_ms)
+                         float *fog, int layer, fp_color_frame_t *color, double *ms,
+                         double *decompose_ms)
 {
     fp_params_t *p = r->p;
     double t0 = fp_now_ms();
@@ -329,6 +330,26 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
     long suspicious = 0;
     for (size_t i = 0; i < n; i++)
         suspicious += isnan(depth[i]) || depth[i] < 0;
+    /* Height fog alone, on a device in the host's memory, no fog layer
+     * asked for: the kernel composites over the plate itself (the same
+     * frame to the bit, without the layer's 33 MB a 1080p frame written
+     * and read again). */
+    if (!layer && r->use_cl && !r->reference && !r->light.active && !r->buffers &&
+        p->fog.sky != 1 && fp_integrate_over_ok(&r->icl, &r->fog, &view, rgba)) {
+        if ((rc = fp_color_frame(&r->color, info, in_name, frame, color)))
+            return rc;
+        fp_color_to_working(color, rgba, n);
+        if ((rc = fp_integrate_over_cl(&r->icl, &r->fog, &view, depth, rgba)))
+            return fp_error("%s: frame %ld: fog computation failed", in_name, frame);
+        if (suspicious)
+            fp_warn("%s: frame %ld: %ld pixels with NaN or negative depth treated as sky",
+                    in_name, frame, suspicious);
+        double t_out = fp_now_ms();
+        ms[FP_T_FOG] = t_out - t0 - ms[FP_T_FOGMAP];
+        fp_color_to_output(color, rgba, n);
+        ms[FP_T_COMPOSITE] = fp_now_ms() - t_out;
+        return FP_OK;
+    }
     if ((rc = frame_fog(r, &view, depth, in_name, frame, fog)))
         return rc;
     if (suspicious)
@@ -381,7 +402,8 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
         return fp_error("%s: frame %ld: out of memory", in_name, frame);
     fs->fog_px = n;
     if ((rc = fog_composite(r, &cam, info, fp_frame_rgba(f), fp_frame_depth(f), in_name, frame,
-                            fog, &fs->color, job->ms, &job->decompose_ms)))
+                            fog, p->aov.aov || p->aov.aov_only, &fs->color, job->ms,
+                            &job->decompose_ms)))
         return rc;
     double t_aov = fp_now_ms();
     if ((rc = fp_aov_make(p, &fs->color, fog, n, in_name, frame, &fs->aov)))
@@ -833,7 +855,8 @@ int fp_session_frame(fp_session_t *s, const fp_frame_info_t *info, float *rgba,
         return fp_error("%s: frame %ld: out of memory", name, frame);
     fp_color_frame_t color;
     double ms[FP_T_COUNT] = { 0 }, decompose_ms = 0;
-    rc = fog_composite(r, &cam, info, rgba, depth, name, frame, fog, &color, ms, &decompose_ms);
+    rc = fog_composite(r, &cam, info, rgba, depth, name, frame, fog, fog_rgba || transmittance,
+                       &color, ms, &decompose_ms);
     if (rc == FP_OK && (fog_rgba || transmittance)) {
         /* The layers of --aov, whatever the options say. */
         fp_params_t q = *r->p;

@@ -13,6 +13,7 @@
 
 #include "camera.h"
 #include "clrt.h"
+#include "composite.h"
 #include "fp.h"
 #include "integrate.h"
 #include "options.h"
@@ -307,6 +308,7 @@ static void test_opencl_height_shapes(void **state)
     assert_int_equal(fp_integrate_cl_init(cl, &s), FP_OK);
     const int sizes[3][2] = { { 189, 67 }, { 7, 5 }, { 33, 40 } };
     double worst = 0, list_worst = 0;
+    int over_frames = 0;
     for (int si = 0; si < 3; si++)
         for (int kind = 0; kind < 3; kind++)
             for (int rep = 0; rep < 4; rep++) {
@@ -350,6 +352,33 @@ static void test_opencl_height_shapes(void **state)
                 size_t m = test_pixel_list(n, pix);
                 assert_int_equal(fp_integrate_pixels_cl(&s, &d, &v, depth, pix, m, lst), FP_OK);
                 list_worst = fmax(list_worst, test_list_diff(got, pix, m, lst));
+                /* Composited over the plate in the kernel: bit for bit the
+                 * layer just read composited on the host, alpha's bits
+                 * kept (-0, NaN); only in page-aligned memory. */
+                if (s.host_align && !v.ortho) {
+                    float *over = NULL, *want = malloc(n * 4 * sizeof(float));
+                    assert_int_equal(posix_memalign((void **)&over, 4096, (n * 4 + 4) * sizeof(float)),
+                                     0);
+                    assert_non_null(want);
+                    for (size_t i = 0; i < 4 * n; i++) {
+                        double u = urand();
+                        want[i] = i % 4 == 3 && u < 0.1 ? (u < 0.05 ? -0.0f : NAN)
+                                                        : (float)(-1 + 9 * urand());
+                    }
+                    assert_false(fp_integrate_over_ok(&s, &d, &v, over + 4));
+                    assert_true(fp_integrate_over_ok(&s, &d, &v, over));
+                    memcpy(over, want, n * 4 * sizeof(float));
+                    assert_int_equal(fp_integrate_over_cl(&s, &d, &v, depth, over), FP_OK);
+                    fp_composite_process(want, got, n, want);
+                    for (size_t i = 0; i < 4 * n; i++)
+                        if (memcmp(&over[i], &want[i], sizeof(float)))
+                            fail_msg("%dx%d depth kind %d pixel %zu ch %zu: over %.9g, layer "
+                                     "composited %.9g",
+                                     w, h, kind, i / 4, i % 4, over[i], want[i]);
+                    over_frames++;
+                    free(over);
+                    free(want);
+                }
                 free(depth);
                 free(ref);
                 free(got_mem);
@@ -359,8 +388,10 @@ static void test_opencl_height_shapes(void **state)
     print_message("fog without a fogmap, odd sizes, haze, box, depth kinds, orthographic: "
                   "OpenCL vs C max "
                   "|difference| %.3g (tolerance 1e-5); lists vs frame %.3g (bound 1e-6); the "
-                  "layer written in place on the host: %s\n",
-                  worst, list_worst, s.host_align ? "yes (half of the frames)" : "no (device)");
+                  "layer written in place on the host: %s; composited over the plate in the "
+                  "kernel: %d frames, bit for bit\n",
+                  worst, list_worst, s.host_align ? "yes (half of the frames)" : "no (device)",
+                  over_frames);
     assert_true(list_worst <= 1e-6);
     fp_integrate_cl_release(&s);
     fp_cl_close(cl);
