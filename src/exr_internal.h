@@ -81,8 +81,9 @@ struct fp_frame_t {
     int main_part;       /* colour's part, else depth's, else 0 */
     int color_part, color_chan[4];
     int depth_part, depth_chan;
-    float *rgba;
-    float *depth;
+    float *rgba;         /* page-aligned inside rgba_mem (alloc_aligned, exr_read.c) */
+    float *depth;        /* page-aligned inside depth_mem */
+    void *rgba_mem, *depth_mem;   /* the blocks free() takes */
     fp_frame_info_t info;
     int *dwa_comp;       /* each part's compression in a DWA input (exr_dwa.h), else NULL */
     int dwa_num_parts;
