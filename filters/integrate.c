@@ -363,7 +363,7 @@ static int upload_pixels(fp_integrate_cl_t *s, const int *pix, size_t npix);
 /* Fog without a fogmap: integrate_height(_list), 16 pixels per work-item
  * (kernels/integrate.cl), with the arguments of integrate_fog. */
 static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix, size_t npix,
-                         cl_float4 color, float *fog, int over)
+                         cl_float4 color, float *fog, int over, cl_mem depth)
 {
     const size_t lanes = 16;   /* FP_SIMD in kernels/fog_core.h */
     cl_int w = v->width, h = v->height;
@@ -375,7 +375,7 @@ static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pi
         return FP_OK;
     cl_kernel k = over ? s->height_over : npix ? s->height_list : s->height;
     cl_int cnpix = (cl_int)npix;
-    if (upload_pixels(s, pix, npix) || FP_CL_ARG(k, 0, s->depth) || FP_CL_ARG(k, 1, s->fog) ||
+    if (upload_pixels(s, pix, npix) || FP_CL_ARG(k, 0, depth) || FP_CL_ARG(k, 1, s->fog) ||
         FP_CL_ARG(k, 2, s->view) || FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) ||
         FP_CL_ARG(k, 5, s->params) || FP_CL_ARG(k, 6, s->lvi) || FP_CL_ARG(k, 7, s->lvf) ||
         FP_CL_ARG(k, 8, s->coef) || FP_CL_ARG(k, 9, s->occ) || FP_CL_ARG(k, 10, s->pix) ||
@@ -404,7 +404,7 @@ int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
      * orthographic camera's rays start on its plane, and go through
      * integrate_fog (fp_view_origin_at). */
     if (d->fp[FP_F_HAS_MAP] == 0 && !v->ortho)
-        return launch_height(s, v, pix, npix, color, fog, 0);
+        return launch_height(s, v, pix, npix, color, fog, 0, s->depth);
     return fp_integrate_cl_launch(s, s->kernel, v, pix, npix, fog, "integrate_fog");
 }
 
@@ -420,11 +420,26 @@ int fp_integrate_over_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d, con
 {
     if (!fp_integrate_over_ok(s, d, v, rgba))
         return fp_error("integrate_height_over: the device cannot work in this frame's memory");
-    if (fp_integrate_cl_prepare(s, d, v, depth))
+    /* The depth read where it is too when it is aligned (no 8 MB copy a
+     * 1080p frame), else uploaded. */
+    size_t n = (size_t)v->width * v->height;
+    int host_depth = (uintptr_t)depth % s->host_align == 0;
+    if (fp_integrate_cl_prepare(s, d, v, host_depth ? NULL : depth))
         return FP_ERR;
+    cl_mem dbuf = s->depth;
+    if (host_depth) {
+        cl_int err;
+        dbuf = clCreateBuffer(fp_cl_context(s->cl), CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR,
+                              n * sizeof(float), (void *)depth, &err);
+        if (fp_cl_check(err, "integrate: depth in host memory"))
+            return FP_ERR;
+    }
     cl_float4 color = { { (float)d->fog_color[0], (float)d->fog_color[1],
                           (float)d->fog_color[2], 0 } };
-    return launch_height(s, v, NULL, 0, color, rgba, 1);
+    int rc = launch_height(s, v, NULL, 0, color, rgba, 1, dbuf);
+    if (host_depth)
+        clReleaseMemObject(dbuf);
+    return rc;
 }
 
 /* The pixel list on the device (a one-entry buffer when there is none:

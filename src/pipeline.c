@@ -327,9 +327,10 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
     ms[FP_T_FOGMAP] = fp_now_ms() - t_fogmap;
     *decompose_ms = r->fogmap.decompose_ms;
     size_t n = (size_t)info->width * info->height;
+    /* NaN or negative (!(d >= 0), branch-free: one SIMD pass). */
     long suspicious = 0;
     for (size_t i = 0; i < n; i++)
-        suspicious += isnan(depth[i]) || depth[i] < 0;
+        suspicious += !(depth[i] >= 0);
     /* Height fog alone, on a device in the host's memory, no fog layer
      * asked for: the kernel composites over the plate itself (the same
      * frame to the bit, without the layer's 33 MB a 1080p frame written
