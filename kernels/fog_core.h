@@ -430,6 +430,13 @@ FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const
 #define FP_SEG_POW2 16
 #endif
 
+/* Counts the walks' segments where a benchmark defines it before including
+ * this header (tests/bench_lod.c, its C copies of the walks); nothing
+ * otherwise. */
+#ifndef FP_SEG_COUNT
+#define FP_SEG_COUNT()
+#endif
+
 /* 1 / j!, j = 0..15. */
 FP_TABLE fp_real fp_invfact[16] = {
     1.0, 1.0, 1.0 / 2, 1.0 / 6, 1.0 / 24, 1.0 / 120, 1.0 / 720, 1.0 / 5040, 1.0 / 40320,
@@ -667,6 +674,7 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         tn = tc > t && tc < tn ? tc : tn;
         tn = fmax(tn, t);
         fp_real len = tn - t;
+        FP_SEG_COUNT();
         /* The cell's coefficients. */
         fp_real c[16];
         for (int j = 0; j <= d; j++) {
@@ -892,6 +900,7 @@ FP_HOT fp_real fp_tensor_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const i
         tn = tc > t && tc < tn ? tc : tn;
         tn = fmax(tn, t);
         fp_real len = tn - t;
+        FP_SEG_COUNT();
         fp_real c0 = G[q * nbx + r], c1 = G[q * nbx + r1];
         fp_real c4 = G[q1 * nbx + r], c5 = G[q1 * nbx + r1];
         fp_real wx = iwx[r], wy = iwy[q];
