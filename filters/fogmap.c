@@ -487,9 +487,10 @@ static int tensor_grid(const float *F, int nx, int ny, float **bx, int *nbx, flo
         }
     }
     /* Rounded up past the rounding of the differences above, and past the
-     * walk's reading of G on a rectangle's far side through the rounded
-     * 1 / width (there G differs from the corner's value by at most
-     * |c1 - c0| times float's rounding, 2 fmax 6e-8). */
+     * walk's reading of G on a rectangle's far sides (nodes of the next
+     * rectangle, left out above) through the rounded 1 / widths: there G
+     * differs from the corner's value by at most |c1 - c0| <= max F
+     * (F >= 0) times float's rounding (6e-8) per axis. */
     *eps = e * (1 + 1e-6) + 1.2e-7 * fmax_abs;
     *nbx = kx;
     *nby = ky;
