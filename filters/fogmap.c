@@ -390,9 +390,17 @@ static int tensor_grid(const float *F, int nx, int ny, float **bx, int *nbx, flo
         rc = fp_error("fogmap: out of memory");
         goto done;
     }
-    /* Second differences along U (into cx, per column) and V (cy, per row). */
     float fmax_abs = 0;
-    for (int j = 0; j < ny; j++) {
+    for (size_t i = 0; i < (size_t)nx * ny; i++) {
+        float a = fabsf(F[i]);
+        fmax_abs = a > fmax_abs ? a : fmax_abs;
+    }
+    float tol = (float)(FP_TENSOR_TOL * fmax_abs);
+    /* Second differences along U (their largest per column into cx) and V
+     * (per row into cy), the breaks counted as they appear: a map with fine
+     * detail stops within its first rows. */
+    int kx = 0, ky = 0;
+    for (int j = 0; j < ny && kx <= nx / FP_TENSOR_SPARSE && ky <= ny / FP_TENSOR_SPARSE; j++) {
         const float *row = F + (size_t)j * nx;
         const float *up = F + (size_t)(j ? j - 1 : ny - 1) * nx;
         const float *dn = F + (size_t)(j + 1 < ny ? j + 1 : 0) * nx;
@@ -400,19 +408,13 @@ static int tensor_grid(const float *F, int nx, int ny, float **bx, int *nbx, flo
         for (int i = 0; i < nx; i++) {
             float l = row[i ? i - 1 : nx - 1], r = row[i + 1 < nx ? i + 1 : 0];
             float du = fabsf(l - 2 * row[i] + r), dv = fabsf(up[i] - 2 * row[i] + dn[i]);
+            kx += du > tol && !(cx[i] > tol);
             cx[i] = du > cx[i] ? du : cx[i];
             vmax = dv > vmax ? dv : vmax;
-            float a = fabsf(row[i]);
-            fmax_abs = a > fmax_abs ? a : fmax_abs;
         }
         cy[j] = vmax;
+        ky += vmax > tol;
     }
-    float tol = (float)(FP_TENSOR_TOL * fmax_abs);
-    int kx = 0, ky = 0;
-    for (int i = 0; i < nx; i++)
-        kx += cx[i] > tol;
-    for (int j = 0; j < ny; j++)
-        ky += cy[j] > tol;
     if (kx > nx / FP_TENSOR_SPARSE || ky > ny / FP_TENSOR_SPARSE)
         goto done;
     /* At least one break per axis: one rectangle a period wide. */
