@@ -362,6 +362,156 @@ static int tail_maps_linear(const fp_fogmap_t *m, const float *fine, const float
     return FP_OK;
 }
 
+/* The tensor grid of the linear basis (kernels/fog_core.h, fp_tensor_walk)
+ * over the padded fogmap F (nx x ny, periodic as the walk reads it): *bx,
+ * *by the break nodes per axis, *val F at them (rows along V), *eps the
+ * exact max |F - G| over the plane, G bilinear on the rectangles between
+ * consecutive breaks.  A node is a break where the largest |second
+ * difference| of F across it (over every line of the other axis) passes
+ * FP_TENSOR_TOL of F's largest |value|, a few times float's rounding of
+ * the values (the rest of F's rounding lands in eps, measured).  None
+ * (*nbx = 0) unless both axes have at most 1/FP_TENSOR_SPARSE of their
+ * nodes as breaks: a map with fine detail keeps the dyadic levels alone. */
+_Static_assert(FP_TG_ROW > FP_MAX_LEVELS + 1 && FP_TG_ROW < FP_LEVEL_TABLE,
+               "the tensor grid's row follows the levels' and the fine grid's");
+#define FP_TENSOR_TOL 1e-6
+#define FP_TENSOR_SPARSE 8
+static int tensor_grid(const float *F, int nx, int ny, float **bx, int *nbx, float **by,
+                       int *nby, float **val, double *eps)
+{
+    *bx = *by = *val = NULL;
+    *nbx = *nby = 0;
+    *eps = 0;
+    float *cx = calloc((size_t)nx, sizeof *cx), *cy = calloc((size_t)ny, sizeof *cy);
+    int *rx = malloc((size_t)nx * sizeof *rx), *ry = malloc((size_t)ny * sizeof *ry);
+    double *g0 = malloc((size_t)nx * sizeof *g0), *g1 = malloc((size_t)nx * sizeof *g1);
+    int rc = FP_OK;
+    if (!cx || !cy || !rx || !ry || !g0 || !g1) {
+        rc = fp_error("fogmap: out of memory");
+        goto done;
+    }
+    float fmax_abs = 0;
+    for (size_t i = 0; i < (size_t)nx * ny; i++) {
+        float a = fabsf(F[i]);
+        fmax_abs = a > fmax_abs ? a : fmax_abs;
+    }
+    float tol = (float)(FP_TENSOR_TOL * fmax_abs);
+    /* Second differences along U (their largest per column into cx) and V
+     * (per row into cy), the breaks counted as they appear: a map with fine
+     * detail stops within its first rows. */
+    int kx = 0, ky = 0;
+    for (int j = 0; j < ny && kx <= nx / FP_TENSOR_SPARSE && ky <= ny / FP_TENSOR_SPARSE; j++) {
+        const float *row = F + (size_t)j * nx;
+        const float *up = F + (size_t)(j ? j - 1 : ny - 1) * nx;
+        const float *dn = F + (size_t)(j + 1 < ny ? j + 1 : 0) * nx;
+        float vmax = 0;
+        for (int i = 0; i < nx; i++) {
+            float l = row[i ? i - 1 : nx - 1], r = row[i + 1 < nx ? i + 1 : 0];
+            float du = fabsf(l - 2 * row[i] + r), dv = fabsf(up[i] - 2 * row[i] + dn[i]);
+            kx += du > tol && !(cx[i] > tol);
+            cx[i] = du > cx[i] ? du : cx[i];
+            vmax = dv > vmax ? dv : vmax;
+        }
+        cy[j] = vmax;
+        ky += vmax > tol;
+    }
+    if (kx > nx / FP_TENSOR_SPARSE || ky > ny / FP_TENSOR_SPARSE)
+        goto done;
+    /* At least one break per axis: one rectangle a period wide. */
+    kx = kx ? kx : 1;
+    ky = ky ? ky : 1;
+    *bx = malloc(2 * (size_t)kx * sizeof **bx);
+    *by = malloc(2 * (size_t)ky * sizeof **by);
+    *val = malloc((size_t)kx * ky * sizeof **val);
+    if (!*bx || !*by || !*val) {
+        rc = fp_error("fogmap: out of memory");
+        goto done;
+    }
+    int n = 0;
+    for (int i = 0; i < nx; i++)
+        if (cx[i] > tol)
+            rx[n++] = i;
+    if (n == 0)
+        rx[n++] = 0;
+    n = 0;
+    for (int j = 0; j < ny; j++)
+        if (cy[j] > tol)
+            ry[n++] = j;
+    if (n == 0)
+        ry[n++] = 0;
+    for (int q = 0; q < ky; q++)
+        for (int r = 0; r < kx; r++)
+            (*val)[(size_t)q * kx + r] = F[(size_t)ry[q] * nx + rx[r]];
+    for (int r = 0; r < kx; r++) {
+        int w = (r + 1 < kx ? rx[r + 1] : rx[0] + nx) - rx[r];
+        (*bx)[r] = (float)rx[r];
+        (*bx)[kx + r] = 1.0f / w;
+    }
+    for (int q = 0; q < ky; q++) {
+        int w = (q + 1 < ky ? ry[q + 1] : ry[0] + ny) - ry[q];
+        (*by)[q] = (float)ry[q];
+        (*by)[ky + q] = 1.0f / w;
+    }
+    /* Each node's rectangle: that of the last break at or before it, the
+     * last rectangle (wrapping) before the first break. */
+    for (int i = 0, r = kx - 1, next = 0; i < nx; i++) {
+        if (next < kx && (int)(*bx)[next] == i)
+            r = next++;
+        rx[i] = r;
+    }
+    for (int j = 0, q = ky - 1, next = 0; j < ny; j++) {
+        if (next < ky && (int)(*by)[next] == j)
+            q = next++;
+        ry[j] = q;
+    }
+    /* eps: F - G is bilinear on every finest cell, so its largest |.| is at
+     * the nodes.  G as the walk forms it from the stored values: along U on
+     * the rectangle's two rows, then along V. */
+    double e = 0;
+    int qrow = -1;
+    for (int j = 0; j < ny; j++) {
+        int q = ry[j], q1 = q + 1 < ky ? q + 1 : 0;
+        double fy = (double)(((j - (int)(*by)[q]) % ny + ny) % ny) * (*by)[ky + q];
+        if (q != qrow) {
+            for (int i = 0; i < nx; i++) {
+                int r = rx[i], r1 = r + 1 < kx ? r + 1 : 0;
+                double fx = (double)(((i - (int)(*bx)[r]) % nx + nx) % nx) * (*bx)[kx + r];
+                const float *v0 = *val + (size_t)q * kx, *v1 = *val + (size_t)q1 * kx;
+                g0[i] = (1 - fx) * v0[r] + fx * v0[r1];
+                g1[i] = (1 - fx) * v1[r] + fx * v1[r1];
+            }
+            qrow = q;
+        }
+        const float *row = F + (size_t)j * nx;
+        for (int i = 0; i < nx; i++) {
+            double dd = fabs((double)row[i] - ((1 - fy) * g0[i] + fy * g1[i]));
+            e = dd > e ? dd : e;
+        }
+    }
+    /* Rounded up past the rounding of the differences above, and past the
+     * walk's reading of G on a rectangle's far sides (nodes of the next
+     * rectangle, left out above) through the rounded 1 / widths: there G
+     * differs from the corner's value by at most |c1 - c0| <= max F
+     * (F >= 0) times float's rounding (6e-8) per axis. */
+    *eps = e * (1 + 1e-6) + 1.2e-7 * fmax_abs;
+    *nbx = kx;
+    *nby = ky;
+done:
+    free(cx);
+    free(cy);
+    free(rx);
+    free(ry);
+    free(g0);
+    free(g1);
+    if (rc || !*nbx) {
+        free(*bx);
+        free(*by);
+        free(*val);
+        *bx = *by = *val = NULL;
+    }
+    return rc;
+}
+
 static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_fog,
                         int deconstruct, fp_fog_tables_t *t)
 {
@@ -393,12 +543,26 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
         free(approx);
         return FP_ERR;
     }
-    t->coef = malloc((ncoef + napprox + ntmaps) * sizeof(float));
+    float *tbx = NULL, *tby = NULL, *tval = NULL;
+    int tnx = 0, tny = 0;
+    double teps = 0;
+    if (deconstruct && m->degree == 1 &&
+        tensor_grid(fine.coef, m->dom_w, m->dom_h, &tbx, &tnx, &tby, &tny, &tval, &teps)) {
+        free(fine.coef);
+        free(approx);
+        free(tmaps);
+        return FP_ERR;
+    }
+    size_t ntensor = tnx ? (size_t)tnx * tny + 2 * (size_t)tnx + 2 * (size_t)tny : 0;
+    t->coef = malloc((ncoef + napprox + ntmaps + ntensor) * sizeof(float));
     t->occ = malloc(nocc + 1);
     if (!t->coef || !t->occ) {
         free(fine.coef);
         free(approx);
         free(tmaps);
+        free(tbx);
+        free(tby);
+        free(tval);
         return fp_error("fogmap: out of memory");
     }
     size_t co = 0, oo = 0;
@@ -461,6 +625,27 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
     free(approx);
     free(tmaps);
     ncoef += napprox + ntmaps;
+    /* The tensor grid after them: G, then the breaks and 1 / widths along
+     * U, then along V. */
+    if (tnx) {
+        int *ti = t->lvi + FP_TG_ROW * FP_LI_STRIDE;
+        ti[FP_TI_NX] = tnx;
+        ti[FP_TI_NY] = tny;
+        ti[FP_TI_VAL] = (int)ncoef;
+        memcpy(t->coef + ncoef, tval, (size_t)tnx * tny * sizeof(float));
+        ncoef += (size_t)tnx * tny;
+        ti[FP_TI_BX] = (int)ncoef;
+        memcpy(t->coef + ncoef, tbx, 2 * (size_t)tnx * sizeof(float));
+        ncoef += 2 * (size_t)tnx;
+        ti[FP_TI_BY] = (int)ncoef;
+        memcpy(t->coef + ncoef, tby, 2 * (size_t)tny * sizeof(float));
+        ncoef += 2 * (size_t)tny;
+        /* Up to a float, as the device reads it. */
+        t->lvf[FP_TG_ROW * FP_LR_STRIDE + FP_TR_EPS] = nextafterf((float)teps, INFINITY);
+    }
+    free(tbx);
+    free(tby);
+    free(tval);
     static _Atomic unsigned long serial;
     t->serial = ++serial;
     t->nlevels = nl;

@@ -104,6 +104,16 @@
                              |F - A_l| (B-splines >= 0 and sum to 1) */
 #define FP_LR_STRIDE 8
 #define FP_MAX_LEVELS_ALL 16   /* levels + coarse + the fine grid for marching */
+/* The tensor grid of the linear basis (fp_tensor_walk): the last row of
+ * the level tables, after the levels' and the fine grid's (at most
+ * FP_MAX_LEVELS + 2 = 14 rows, filters/wavelet.h). */
+#define FP_TG_ROW 15
+#define FP_TI_NX 0        /* rectangles along U, as many as break nodes (0: no tensor grid) */
+#define FP_TI_NY 1
+#define FP_TI_VAL 2       /* offset of G at the break nodes: NY rows of NX */
+#define FP_TI_BX 3        /* offset of the break nodes along U (NX), then 1 / widths (NX) */
+#define FP_TI_BY 4        /* the same along V */
+#define FP_TR_EPS 0       /* max |F - G| over the plane */
 
 /* Gauss-Legendre nodes and weights on [0,1], n = 1..8. */
 FP_TABLE fp_real fp_gl_x[36] = {
@@ -420,6 +430,13 @@ FP_FN fp_real fp_level_integral(FP_CONSTANT const fp_real *fp, FP_CONSTANT const
 #define FP_SEG_POW2 16
 #endif
 
+/* Counts the walks' segments where a benchmark defines it before including
+ * this header (tests/bench_lod.c, its C copies of the walks); nothing
+ * otherwise. */
+#ifndef FP_SEG_COUNT
+#define FP_SEG_COUNT()
+#endif
+
 /* 1 / j!, j = 0..15. */
 FP_TABLE fp_real fp_invfact[16] = {
     1.0, 1.0, 1.0 / 2, 1.0 / 6, 1.0 / 24, 1.0 / 120, 1.0 / 720, 1.0 / 5040, 1.0 / 40320,
@@ -657,6 +674,7 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         tn = tc > t && tc < tn ? tc : tn;
         tn = fmax(tn, t);
         fp_real len = tn - t;
+        FP_SEG_COUNT();
         /* The cell's coefficients. */
         fp_real c[16];
         for (int j = 0; j <= d; j++) {
@@ -799,6 +817,158 @@ FP_FN fp_real fp_grid_walk_any(FP_CONSTANT const fp_real *fp, FP_CONSTANT const 
         return fp_grid_walk(fp, lvi, lvf, coef, 3, L, finer, p, a, b, od, od_stop, lod, ws,
                             t_end, L_next);
     }
+}
+
+/* ------------------------------------------------------------------ */
+/* The tensor grid (--lod-bound, linear basis).  A fogmap made by resizing
+ * a smaller one (oiiotool --resize:filter=triangle samples its bilinear
+ * surface at the new pixel centres) is bilinear on far larger rectangles
+ * than its cells, but their sides fall between the nodes of every coarser
+ * dyadic level, so each of those levels has detail along every kink and
+ * the bounded level of detail walks fine cells there.  filters/fogmap.c
+ * finds, per axis, the break nodes: the nodes where F's second difference
+ * across the other axis is not rounding; G, bilinear on the rectangles
+ * between consecutive breaks (wrapping with the domain) through F's values
+ * at their corners, is then F up to eps = max |F - G|, computed exactly at
+ * every finest node (F - G is bilinear on each finest cell).  Its walk is
+ * fp_grid_walk's (d = 1) with the cell sides read from the break arrays. */
+
+/* The rectangle holding x on one axis of the tensor grid: index *r of its
+ * lower break in br[0..nb-1] (sorted, in [0, n)), *o the multiple of the
+ * period n it sits in.  On a break, a path moving down enters the
+ * rectangle below (fp_cell_of). */
+FP_FN void fp_tensor_find(FP_GLOBAL const float *br, int nb, int n, fp_real x, fp_real dxdt,
+                          int *r, fp_real *o)
+{
+    fp_real per = floor(x / n);
+    fp_real xr = x - per * n;
+    int lo = 0, hi = nb;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        int below = dxdt < 0 ? br[mid] < xr : br[mid] <= xr;
+        lo = below ? mid + 1 : lo;
+        hi = below ? hi : mid;
+    }
+    *r = lo - 1;
+    if (*r < 0) {
+        *r = nb - 1;
+        per -= 1;
+    }
+    *o = per * n;
+}
+
+/* Integral of G times h(y(t)) along p over [a, b], segment by segment (the
+ * DDA over the rectangles plus the cuts at Y0 and every FP_SEG_U of the
+ * exponent, as fp_grid_walk), until b or until the optical depth passes
+ * od_stop (od: before a). */
+FP_HOT fp_real fp_tensor_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                              FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                              const fp_path_t *p, fp_real a, fp_real b, fp_real od,
+                              fp_real od_stop)
+{
+    /* The finest level's coordinates: node i at x = i (linear: no knot shift). */
+    int L = (int)fp[FP_F_NLEVELS] - 1;
+    int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
+    FP_CONSTANT const int *ti = lvi + FP_TG_ROW * FP_LI_STRIDE;
+    int nbx = ti[FP_TI_NX], nby = ti[FP_TI_NY];
+    FP_GLOBAL const float *G = coef + ti[FP_TI_VAL];
+    FP_GLOBAL const float *bx = coef + ti[FP_TI_BX], *iwx = bx + nbx;
+    FP_GLOBAL const float *by = coef + ti[FP_TI_BY], *iwy = by + nby;
+    fp_real cell = lvf[L * FP_LR_STRIDE + FP_LR_CELL];
+    fp_real xs = (p->u0 - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cell;
+    fp_real ys = (p->v0 - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cell;
+    fp_real dxdt = p->du / cell, dydt = p->dv / cell;
+    fp_real y0 = fp[FP_F_Y0], H = fp[FP_F_H];
+    fp_real lam = p->dy / H;
+    fp_real lmax = lam != 0 ? FP_SEG_U / fabs(lam) : FP_INF;
+    fp_real tc = p->dy != 0 ? (y0 - p->oy) / p->dy : -FP_INF;
+    fp_real ix = dxdt != 0 ? 1 / dxdt : 0, iy = dydt != 0 ? 1 / dydt : 0;
+    int r, q;
+    fp_real ox, oy;
+    fp_tensor_find(bx, nbx, nx, xs + a * dxdt, dxdt, &r, &ox);
+    fp_tensor_find(by, nby, ny, ys + a * dydt, dydt, &q, &oy);
+    /* The rectangle's sides (xlo, xhi), (ylo, yhi) in the path's
+     * unwrapped coordinates; r1, q1 the wrapped indices of the upper ones. */
+    int r1 = r + 1 == nbx ? 0 : r + 1, q1 = q + 1 == nby ? 0 : q + 1;
+    fp_real xlo = ox + bx[r], xhi = r1 ? ox + bx[r1] : ox + nx + bx[0];
+    fp_real ylo = oy + by[q], yhi = q1 ? oy + by[q1] : oy + ny + by[0];
+    fp_real tx = dxdt > 0 ? (xhi - xs) * ix : dxdt < 0 ? (xlo - xs) * ix : FP_INF;
+    fp_real ty = dydt > 0 ? (yhi - ys) * iy : dydt < 0 ? (ylo - ys) * iy : FP_INF;
+    fp_real t = a, sum = 0, hc = 1;
+    for (int guard = 0; t < b && od + sum <= od_stop && guard < (1 << 24); guard++) {
+        fp_real tn = fmin(fmin(tx, ty), fmin(b, t + lmax));
+        tn = tc > t && tc < tn ? tc : tn;
+        tn = fmax(tn, t);
+        fp_real len = tn - t;
+        FP_SEG_COUNT();
+        fp_real c0 = G[q * nbx + r], c1 = G[q * nbx + r1];
+        fp_real c4 = G[q1 * nbx + r], c5 = G[q1 * nbx + r1];
+        fp_real wx = iwx[r], wy = iwy[q];
+        fp_real px = (xs + t * dxdt - xlo) * wx, qx = dxdt * len * wx;
+        fp_real py = (ys + t * dydt - ylo) * wy, qy = dydt * len * wy;
+        fp_real ya = p->oy + t * p->dy;
+        int above = (p->oy + (t + (fp_real)0.5 * len) * p->dy) > y0;
+        fp_real u = above ? lam * len : (fp_real)0;
+        if ((guard & 7) == 0)
+            hc = exp(-fmax(ya - y0, (fp_real)0) / H);
+        fp_real ha = hc, E = 1, seg;
+        /* fp_grid_walk's bilinear segment: F = g0 + g1 sx + g2 sy + g3 sx sy. */
+        fp_real g1 = c1 - c0, g2 = c4 - c0, g3 = c5 - c4 - g1;
+        fp_real P0 = c0 + g1 * px + (g2 + g3 * px) * py;
+        fp_real P1 = g1 * qx + g2 * qy + g3 * (px * qy + qx * py);
+        fp_real P2 = g3 * qx * qy;
+        if (lam == 0) {
+            seg = P0 * fp_recip[0] + P1 * fp_recip[1] + P2 * fp_recip[2];
+        } else {
+            fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
+            for (int j = 0; j < FP_SEG_POW2; j++) {
+                fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
+                cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
+                ce[j] = f;
+            }
+            seg = fp_estrin(cs, -u);
+            E = fp_estrin(ce, -u);
+        }
+        sum += ha * len * seg;
+        hc = ha * E;
+        /* Into the next rectangle where the segment ended on its side. */
+        if (tx <= tn) {
+            if (dxdt > 0) {
+                r = r1;
+                ox += r ? 0 : nx;
+                r1 = r + 1 == nbx ? 0 : r + 1;
+                xlo = xhi;
+                xhi = r1 ? ox + bx[r1] : ox + nx + bx[0];
+                tx = (xhi - xs) * ix;
+            } else {
+                r1 = r;
+                r = r ? r - 1 : nbx - 1;
+                ox -= r1 ? 0 : nx;
+                xhi = xlo;
+                xlo = ox + bx[r];
+                tx = (xlo - xs) * ix;
+            }
+        }
+        if (ty <= tn) {
+            if (dydt > 0) {
+                q = q1;
+                oy += q ? 0 : ny;
+                q1 = q + 1 == nby ? 0 : q + 1;
+                ylo = yhi;
+                yhi = q1 ? oy + by[q1] : oy + ny + by[0];
+                ty = (yhi - ys) * iy;
+            } else {
+                q1 = q;
+                q = q ? q - 1 : nby - 1;
+                oy -= q1 ? 0 : ny;
+                yhi = ylo;
+                ylo = oy + by[q];
+                ty = (ylo - ys) * iy;
+            }
+        }
+        t = tn;
+    }
+    return sum;
 }
 
 /* F at a domain point from one level (the fine grid, for marching). */
@@ -1030,6 +1200,22 @@ FP_FN fp_real fp_fogmap_od(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
     lod.wfail = 0;
     lod.efail = 0;
     lod.wtot = lod.bound > 0 ? fp_rest_weight(fp[FP_F_Y0], fp[FP_F_H], &p, a, b) : 1;
+    /* Bounded, where the finest level reaches the whole ray (--lod-mu 1, no
+     * --lod-footprint): the tensor grid when its error fits the whole ray,
+     * |dtau| <= |d od| <= sigma eps wtot <= bound (both optical depths
+     * >= 0: F >= 0 and G interpolates F's values). */
+    if (walk && lod.bound > 0 && lvi[FP_TG_ROW * FP_LI_STRIDE + FP_TI_NX] > 0 &&
+        !(dmax[nl - 1] < b) &&
+        sigma * lvf[FP_TG_ROW * FP_LR_STRIDE + FP_TR_EPS] * lod.wtot <= lod.bound) {
+        for (int piece = 0; piece + 1 < ncut && od <= od_max; piece++) {
+            fp_path_t q = p;
+            if (wrap == 1)
+                fp_clamp_piece(fp, &p, cuts[piece], cuts[piece + 1], &q);
+            od += fp_tensor_walk(fp, lvi, lvf, coef, &q, cuts[piece], cuts[piece + 1], od,
+                                 od_max);
+        }
+        return sigma * od;
+    }
     /* Bounded: from the coarsest grid, finer where the bound asks. */
     int L = lod.bound > 0 ? 0 : nl - 1, d = (int)fp[FP_F_DEGREE];
     for (int piece = 0; walk && piece + 1 < ncut && od <= od_max; piece++) {

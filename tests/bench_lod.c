@@ -16,6 +16,12 @@
  * warm-up (BENCH_LOD_QUICK set: the exact 4096 runs left out).  Error: max
  * |dtau| of the OpenCL layer against the exact C double reference (every
  * level, no early exit) on every 16th pixel. */
+/* The segments the C copies of the walks (fog_core.h, compiled into this
+ * program) integrate, for the segments per ray. */
+static long seg_count;
+#define FP_SEG_COUNT() (seg_count++)
+
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -112,6 +118,23 @@ static void reference(frame_t *f, const fp_integrate_data_t *d)
     }
 }
 
+/* Segments per ray of `d`'s walk, the C copy (double; the OpenCL walk
+ * cuts the same segments up to rounding), on every STEP-th pixel. */
+static double segments(const frame_t *f, const fp_integrate_data_t *d)
+{
+    const fp_fog_tables_t *t = fp_fog_tables_or_empty(d->tables);
+    int w = f->view.width;
+    size_t rays = 0;
+    seg_count = 0;
+    for (size_t i = STEP / 2; i < f->n; i += STEP, rays++) {
+        double dir[3], len, o[3];
+        fp_view_ray(&f->view, (int)(i % w), (int)(i / w), f->depth[i], dir, &len);
+        fp_view_origin_at(&f->view, (int)(i % w), (int)(i / w), o);
+        fp_fog_od(d->fp, FP_TABLES(t), o[0], o[1], o[2], dir[0], dir[1], dir[2], len, 0);
+    }
+    return (double)seg_count / rays;
+}
+
 static double max_error(const frame_t *f)
 {
     double me = 0;
@@ -151,17 +174,35 @@ static float *dyadic(const float *m64, int n64, int scale)
     return img;
 }
 
+/* What the tensor grids were, printed under the table. */
+static char notes[2][256];
+
 /* One 4096x4096 map: exact (on every STEP-th pixel, a pixel list) and
- * the bounds, against the 64x64 (d64), whose cost *ns64 is measured again
- * before each bound (the least of all its runs: a loaded machine's noise
- * counts against the ratios less). */
+ * the bounds, with the tensor grid (where its error fits the ray: what
+ * --lod-bound does) and without it (the dyadic levels alone), against the
+ * 64x64 (d64), whose cost *ns64 is measured again before each bound (the
+ * least of all its runs: a loaded machine's noise counts against the
+ * ratios less). */
 static int large(frame_t *f, const char *name, const float *img, const fp_integrate_data_t *d64,
-                 double *ns64)
+                 double *ns64, char *note)
 {
     fp_integrate_data_t d;
     fp_fogmap_stage_t st;
     if (setup(f, img, 4096, 9, &st, &d))
         return FP_ERR;
+    /* The same tables without the tensor grid (a serial of their own, so
+     * that the device copy is told apart). */
+    fp_fog_tables_t nt = *d.tables;
+    nt.lvi[FP_TG_ROW * FP_LI_STRIDE + FP_TI_NX] = 0;
+    nt.serial = ULONG_MAX - nt.serial;
+    const int *ti = d.tables->lvi + FP_TG_ROW * FP_LI_STRIDE;
+    double fm = 0;
+    for (size_t i = 0; i < (size_t)4096 * 4096; i++)
+        fm = fmax(fm, img[i]);
+    snprintf(note, 256, "%s: tensor grid %dx%d rectangles%s, eps = max |F - G| = %.2e "
+             "(max F %.3g)", name, ti[FP_TI_NX], ti[FP_TI_NY],
+             ti[FP_TI_NX] ? "" : " (none: the dyadic levels alone)",
+             d.tables->lvf[FP_TG_ROW * FP_LR_STRIDE + FP_TR_EPS], fm);
     reference(f, &d);
     size_t np = f->n / STEP;
     int *pix = malloc(np * sizeof *pix);
@@ -173,8 +214,9 @@ static int large(frame_t *f, const char *name, const float *img, const fp_integr
     }
     for (size_t i = 0; i < np; i++)
         pix[i] = (int)(STEP / 2 + i * STEP);
+    int quick = getenv("BENCH_LOD_QUICK") != NULL;
     double best = INFINITY;
-    for (int r = 0; r < (getenv("BENCH_LOD_QUICK") ? 0 : 2); r++) {
+    for (int r = 0; r < (quick ? 0 : 2); r++) {
         double t0 = cpu_s();
         if (fp_integrate_pixels_cl(&icl, &d, &f->view, f->depth, pix, np, out))
             return FP_ERR;
@@ -183,17 +225,25 @@ static int large(frame_t *f, const char *name, const float *img, const fp_integr
     double ns = best * 1e9 / np;
     for (size_t i = 0; i < np; i++)
         f->got[4 * pix[i] + 3] = out[4 * i + 3];
-    printf("| %s | exact (pixel list: every %dth pixel) | %.0f | %.1fx | %.1e |\n", name, STEP,
-           ns, ns / *ns64, max_error(f));
+    if (quick)
+        printf("| %s | exact | (BENCH_LOD_QUICK: left out) | | | |\n", name);
+    else
+        printf("| %s | exact (pixel list: every %dth pixel) | %.0f | %.1fx | %.1e | %.0f |\n",
+               name, STEP, ns, ns / *ns64, max_error(f), segments(f, &d));
     free(pix);
     free(out);
     const double bounds[] = { 1e-4, 1e-3 };
     for (size_t k = 0; k < FP_ARRAY_LEN(bounds); k++) {
-        *ns64 = fmin(*ns64, run(f, d64, 3));
-        d.fp[FP_F_LOD_BOUND] = bounds[k];
-        ns = run(f, &d, 3);
-        printf("| %s | --lod-bound %g | %.0f | %.1fx | %.1e |\n", name, bounds[k], ns,
-               ns / *ns64, max_error(f));
+        for (int tensor = 1; tensor >= 0; tensor--) {
+            fp_integrate_data_t db = d;
+            db.tables = tensor ? d.tables : &nt;
+            db.fp[FP_F_LOD_BOUND] = bounds[k];
+            *ns64 = fmin(*ns64, run(f, d64, 3));
+            ns = run(f, &db, 3);
+            printf("| %s | --lod-bound %g%s | %.0f | %.2fx | %.1e | %.0f |\n", name, bounds[k],
+                   tensor ? "" : ", no tensor grid (the dyadic levels alone)", ns, ns / *ns64,
+                   max_error(f), segments(f, &db));
+        }
     }
     fp_fogmap_release(&st);
     return FP_OK;
@@ -229,20 +279,30 @@ int main(int argc, char **argv)
            "between the 4096 map's dyadic nodes); 4096 (dyadic): the 64x64 on the 4096 map's "
            "grid of cell 64 (finer levels zero up to rounding).\n\n",
            fp_cl_device_label(cl), info->width, info->height, STEP);
-    printf("| map | mode | ns/px | x 64x64 | max \\|dtau\\| |\n|---|---|---|---|---|\n");
+    printf("| map | mode | ns/px | x 64x64 | max \\|dtau\\| | segments/ray |\n"
+           "|---|---|---|---|---|---|\n");
     fp_integrate_data_t d;
     fp_fogmap_stage_t st;
     if (setup(&f, m64, 64, 3, &st, &d))
         return 1;
     double ns64 = run(&f, &d, 5);
     reference(&f, &d);
-    printf("| 64x64, 3 levels | exact | %.0f | 1.0x | %.1e |\n", ns64, max_error(&f));
+    printf("| 64x64, 3 levels | exact | %.0f | 1.0x | %.1e | %.0f |\n", ns64, max_error(&f),
+           segments(&f, &d));
     const char *only = argc > 4 ? argv[4] : "";
-    if ((strcmp(only, "dyadic") && large(&f, "4096 (triangle), 9 levels", m4096, &d, &ns64)) ||
-        (strcmp(only, "triangle") && large(&f, "4096 (dyadic), 9 levels", mdy, &d, &ns64)))
+    if ((strcmp(only, "dyadic") &&
+         large(&f, "4096 (triangle), 9 levels", m4096, &d, &ns64, notes[0])) ||
+        (strcmp(only, "triangle") &&
+         large(&f, "4096 (dyadic), 9 levels", mdy, &d, &ns64, notes[1])))
         return 1;
     printf("\nThe 64x64's least cost over all its runs: %.0f ns/px (the ratios above use the "
-           "least up to their row).\n", ns64);
+           "least up to their row).  Segments per ray: of the C copy of each walk (double) on "
+           "the same pixels.  --lod-bound walks the tensor grid (the linear basis' fogmap on "
+           "the rectangles between its break nodes, filters/fogmap.c) wherever sigma eps times "
+           "the ray's weight fits the bound, else the dyadic levels.\n", ns64);
+    for (int i = 0; i < 2; i++)
+        if (notes[i][0])
+            printf("- %s\n", notes[i]);
     fp_fogmap_release(&st);
     free(mdy);
     free(m64);

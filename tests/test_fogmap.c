@@ -847,10 +847,20 @@ static void test_lod_bound_large(void **state)
         const char *name = map == 0 ? "4096x4096 (kinks)" : "256x256 noise";
         if (have_cl)
             assert_int_equal(fp_integrate_process(&st.d, &v, depth, ref, NULL), FP_OK);
-        const double bounds[] = { 1e-3, 1e-4 };
-        for (size_t b = 0; b < FP_ARRAY_LEN(bounds); b++) {
+        /* The kinks' map has a tensor grid (tests/test_tensor.c), which
+         * takes most of its rays: the dyadic levels alone too, on a copy
+         * of its tables without it (a serial of its own for the device). */
+        fp_fog_tables_t nt = *st.d.tables;
+        nt.lvi[FP_TG_ROW * FP_LI_STRIDE + FP_TI_NX] = 0;
+        nt.serial = ~nt.serial;
+        const double bounds[] = { 1e-3, 1e-4, 1e-3, 1e-4 };
+        for (size_t b = 0; b < (map == 0 ? 4 : 2); b++) {
             fp_integrate_data_t lod = st.d;
             lod.fp[FP_F_LOD_BOUND] = bounds[b];
+            if (b >= 2) {
+                lod.tables = &nt;
+                name = "4096x4096 (kinks), no tensor grid";
+            }
             double worst = 0;
             int changed = 0;
             for (int k = 0; k < 150; k++) {
