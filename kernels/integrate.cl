@@ -188,8 +188,9 @@ __kernel void integrate_height_over(__global const float *restrict depth,
                 c3 = vload16(3, out);
         float16 s0 = FP_RGBA4(r, g, b, t, 0, 1, 2, 3), s1 = FP_RGBA4(r, g, b, t, 4, 5, 6, 7),
                 s2 = FP_RGBA4(r, g, b, t, 8, 9, a, b), s3 = FP_RGBA4(r, g, b, t, c, d, e, f);
-        float16 t0 = FP_RGBA4(t, t, t, t, 0, 1, 2, 3), t1 = FP_RGBA4(t, t, t, t, 4, 5, 6, 7),
-                t2 = FP_RGBA4(t, t, t, t, 8, 9, a, b), t3 = FP_RGBA4(t, t, t, t, c, d, e, f);
+        /* tau spread over each pixel's four lanes: s's fourth, in-lane. */
+        float16 t0 = s0.s33337777bbbbffff, t1 = s1.s33337777bbbbffff,
+                t2 = s2.s33337777bbbbffff, t3 = s3.s33337777bbbbffff;
         float16 p0 = t0 * c0, p1 = t1 * c1, p2 = t2 * c2, p3 = t3 * c3;
         vstore16(select(p0 + s0, c0, alpha), 0, out);
         vstore16(select(p1 + s1, c1, alpha), 1, out);
