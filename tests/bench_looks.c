@@ -83,7 +83,6 @@ typedef struct set_t {
     const char *name;
     char dir[4096];
     int width, height, frames;
-    double nofog[2];      /* min CPU s of --no-fog over 1 and N frames */
 } set_t;
 
 /* fogpipe's argv over frames 1..nframes of a set, with the look's options
@@ -156,54 +155,36 @@ static double fps_of(const char *stats)
     return fps;
 }
 
-/* Minimum CPU seconds of REPS runs of fogpipe (and the best frames/s of
- * --stats when fps is given). */
-static double min_cpu(const set_t *s, int nframes, const char *const *opts,
-                      const char *const *extra, double *fps)
-{
-    char *argv[MAX_ARGS], buf[32768], stats[4200];
-    snprintf(stats, sizeof stats, "%s/stats.json", scratch);
-    if (build_argv(argv, buf, sizeof buf, s, nframes, opts, extra, fps ? stats : NULL) < 0)
-        return NAN;
-    double best = INFINITY;
-    if (fps)
-        *fps = 0;
-    for (int r = 0; r < REPS; r++) {
-        double t = run_cpu(argv);
-        if (isnan(t))
-            return NAN;
-        best = fmin(best, t);
-        if (fps)
-            *fps = fmax(*fps, fps_of(stats));
-    }
-    return best;
-}
-
-/* The sequence's runs (opts/extra per run, as min_cpu) interleaved:
- * SEQ_REPS rounds of one run of each, so that a load drifting on the
- * shared machine weighs on all of them alike; each run's least CPU
- * seconds into cpu[k] and best frames/s into fps[k].  0, or -1 if a run
- * failed. */
+/* Runs of fogpipe on set s interleaved (run k: nframes[k] frames, opts[k]
+ * and extra[k] as min_cpu): reps rounds of one run of each, so that a load
+ * drifting on the shared machine weighs on all of them alike; each run's
+ * least CPU seconds into cpu[k] and (fps not NULL) best frames/s into
+ * fps[k].  0, or -1 if a run failed. */
 #define SEQ_REPS 5
-static int seq_rounds(const set_t *s, int nruns, const char *const *const *opts,
-                      const char *const *const *extra, double *cpu, double *fps)
+static int rounds(const set_t *s, int nruns, const int *nframes, const char *const *const *opts,
+                  const char *const *const *extra, int reps, double *cpu, double *fps)
 {
     static char *argv[4][MAX_ARGS], buf[4][32768];
     char stats[4200];
     snprintf(stats, sizeof stats, "%s/stats.json", scratch);
-    for (int k = 0; k < nruns && k < 4; k++) {
-        if (build_argv(argv[k], buf[k], sizeof buf[k], s, s->frames, opts[k], extra[k], stats) < 0)
+    if (nruns > 4)
+        return -1;
+    for (int k = 0; k < nruns; k++) {
+        if (build_argv(argv[k], buf[k], sizeof buf[k], s, nframes[k], opts[k], extra[k],
+                       fps ? stats : NULL) < 0)
             return -1;
         cpu[k] = INFINITY;
-        fps[k] = 0;
+        if (fps)
+            fps[k] = 0;
     }
-    for (int r = 0; r < SEQ_REPS; r++)
-        for (int k = 0; k < nruns && k < 4; k++) {
+    for (int r = 0; r < reps; r++)
+        for (int k = 0; k < nruns; k++) {
             double t = run_cpu(argv[k]);
             if (isnan(t))
                 return -1;
             cpu[k] = fmin(cpu[k], t);
-            fps[k] = fmax(fps[k], fps_of(stats));
+            if (fps)
+                fps[k] = fmax(fps[k], fps_of(stats));
         }
     return 0;
 }
@@ -217,20 +198,14 @@ static double marginal_ns(set_t *s, const char *const *opts, const char *const *
     const char *nofog[8] = { "--no-fog" };
     for (int i = 0; io && io[i] && i < 6; i++)
         nofog[i + 1] = io[i];
-    double n1, nn;
-    if (io || !(s->nofog[0] > 0)) {
-        n1 = min_cpu(s, 1, NULL, nofog, NULL);
-        nn = min_cpu(s, s->frames, NULL, nofog, NULL);
-        if (!io) {
-            s->nofog[0] = n1;
-            s->nofog[1] = nn;
-        }
-    } else {
-        n1 = s->nofog[0];
-        nn = s->nofog[1];
-    }
-    double one = min_cpu(s, 1, opts, io, NULL), all = min_cpu(s, s->frames, opts, io, NULL);
-    double fog = (all - one) - (nn - n1);
+    /* The four runs interleaved, REPS rounds. */
+    const int nframes[4] = { 1, s->frames, 1, s->frames };
+    const char *const *o[4] = { NULL, NULL, opts, opts };
+    const char *const *e[4] = { nofog, nofog, io, io };
+    double cpu[4];
+    if (rounds(s, 4, nframes, o, e, REPS, cpu, NULL))
+        return NAN;
+    double fog = (cpu[3] - cpu[2]) - (cpu[1] - cpu[0]);
     return fog / ((s->frames - 1) * px_per_frame(s)) * 1e9;
 }
 
@@ -375,7 +350,7 @@ static void fmt_ns(char *buf, size_t n, double ns)
  * --fog-color 0 so that S is the sun's share alone). */
 static void shafts_section(const char *scratch_dir)
 {
-    set_t sh = { "shafts", "", 1920, 1080, 3, { 0, 0 } };
+    set_t sh = { "shafts", "", 1920, 1080, 3 };
     snprintf(sh.dir, sizeof sh.dir, "%s/shafts", scratch_dir);
     char out[4200];
     snprintf(out, sizeof out, "%s/out-shafts", scratch_dir);
@@ -465,15 +440,15 @@ int main(int argc, char **argv)
     /* 24 frames: the height fog's marginal (~20 ms a frame) stands well
      * above the runs' start-up noise (+-0.1 s), and the pipeline's first
      * frames (its buffers' first pages) weigh less. */
-    set_t hd = { "hd", "", 1920, 1080, 24, { 0, 0 } };
+    set_t hd = { "hd", "", 1920, 1080, 24 };
     /* Several frames each, so that the marginal cost stands well above a
      * run's start-up noise on a shared machine. */
-    set_t mid = { "mid", "", 480, 270, 4, { 0, 0 } };
-    set_t small = { "small", "", 160, 90, 8, { 0, 0 } };
+    set_t mid = { "mid", "", 480, 270, 4 };
+    set_t small = { "small", "", 160, 90, 8 };
     /* The issue's own frame for the sun's shafts with a fogmap, with the
      * scene's shadow maps (the per-frame costs, the self-shadow grid's fill
      * and the map's pyramid, weigh ~2x more per pixel at 160x90). */
-    set_t hds = { "hds", "", 1920, 1080, 3, { 0, 0 } };
+    set_t hds = { "hds", "", 1920, 1080, 3 };
     snprintf(hd.dir, sizeof hd.dir, "%s", argv[1]);
     snprintf(mid.dir, sizeof mid.dir, "%s/mid", scratch);
     snprintf(small.dir, sizeof small.dir, "%s/small", scratch);
@@ -541,8 +516,9 @@ int main(int argc, char **argv)
 
     printf("## Issue 12: the looks, marginal fog cost against the goals\n\n");
     printf("Marginal CPU time per pixel (getrusage user+sys of a fogpipe run minus the same run "
-           "with `--no-fog`, minimum of %d runs each), the run's one-time set-up (OpenCL driver, "
-           "programs, fogmap decomposition) left out: [fog(N frames) - fog(1)] - [no-fog(N) - "
+           "with `--no-fog`, minimum of %d runs each, the four runs interleaved round by round), "
+           "the run's one-time set-up (OpenCL driver, programs, fogmap decomposition) left out: "
+           "[fog(N frames) - fog(1)] - [no-fog(N) - "
            "no-fog(1)] over the pixels of frames 2..N. Error: the OpenCL fog layer against the "
            "exact C double reference (every fast path off) on about 4000 pixels of frame 1: max "
            "|dtau| and max |dS| relative to the largest S. Device: %s.\n\n",
@@ -633,7 +609,8 @@ int main(int argc, char **argv)
         const char *const *opts[3] = { NULL, NULL, height_fog };
         const char *const *extra[3] = { nofog, nofog_off, NULL };
         double cpu[3], fps[3];
-        if (seq_rounds(&hd, 3, opts, extra, cpu, fps))
+        const int nframes[3] = { hd.frames, hd.frames, hd.frames };
+        if (rounds(&hd, 3, nframes, opts, extra, SEQ_REPS, cpu, fps))
             return 1;
         printf("\n1920x1080, %d frames (the three runs interleaved, best of %d rounds): "
                "`--no-fog` %.2f frames/s pipelined, %.2f with `--pipeline off`: **%.2fx** (goal "
