@@ -857,6 +857,30 @@ FP_FN void fp_tensor_find(FP_GLOBAL const float *br, int nb, int n, fp_real x, f
     *o = per * n;
 }
 
+/* One axis of fp_tensor_walk's DDA, into the next rectangle along the
+ * path: rectangle *r between breaks *r and *r1 (wrapped indices), its sides
+ * *lo, *hi in the path's unwrapped coordinates, *o the multiple of the
+ * period n it sits in; s the path's start on this axis, dsdt its rate,
+ * is = 1 / dsdt.  Returns the t of the next side's crossing. */
+FP_FN fp_real fp_tensor_step(FP_GLOBAL const float *br, int nb, int n, fp_real s, fp_real dsdt,
+                             fp_real is, int *r, int *r1, fp_real *o, fp_real *lo, fp_real *hi)
+{
+    if (dsdt > 0) {
+        *r = *r1;
+        *o += *r ? 0 : n;
+        *r1 = *r + 1 == nb ? 0 : *r + 1;
+        *lo = *hi;
+        *hi = *r1 ? *o + br[*r1] : *o + n + br[0];
+        return (*hi - s) * is;
+    }
+    *r1 = *r;
+    *r = *r ? *r - 1 : nb - 1;
+    *o -= *r1 ? 0 : n;
+    *hi = *lo;
+    *lo = *o + br[*r];
+    return (*lo - s) * is;
+}
+
 /* Integral of G times h(y(t)) along p over [a, b], segment by segment (the
  * DDA over the rectangles plus the cuts at Y0 and every FP_SEG_U of the
  * exponent, as fp_grid_walk), until b or until the optical depth passes
@@ -932,40 +956,10 @@ FP_HOT fp_real fp_tensor_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const i
         sum += ha * len * seg;
         hc = ha * E;
         /* Into the next rectangle where the segment ended on its side. */
-        if (tx <= tn) {
-            if (dxdt > 0) {
-                r = r1;
-                ox += r ? 0 : nx;
-                r1 = r + 1 == nbx ? 0 : r + 1;
-                xlo = xhi;
-                xhi = r1 ? ox + bx[r1] : ox + nx + bx[0];
-                tx = (xhi - xs) * ix;
-            } else {
-                r1 = r;
-                r = r ? r - 1 : nbx - 1;
-                ox -= r1 ? 0 : nx;
-                xhi = xlo;
-                xlo = ox + bx[r];
-                tx = (xlo - xs) * ix;
-            }
-        }
-        if (ty <= tn) {
-            if (dydt > 0) {
-                q = q1;
-                oy += q ? 0 : ny;
-                q1 = q + 1 == nby ? 0 : q + 1;
-                ylo = yhi;
-                yhi = q1 ? oy + by[q1] : oy + ny + by[0];
-                ty = (yhi - ys) * iy;
-            } else {
-                q1 = q;
-                q = q ? q - 1 : nby - 1;
-                oy -= q1 ? 0 : ny;
-                yhi = ylo;
-                ylo = oy + by[q];
-                ty = (ylo - ys) * iy;
-            }
-        }
+        if (tx <= tn)
+            tx = fp_tensor_step(bx, nbx, nx, xs, dxdt, ix, &r, &r1, &ox, &xlo, &xhi);
+        if (ty <= tn)
+            ty = fp_tensor_step(by, nby, ny, ys, dydt, iy, &q, &q1, &oy, &ylo, &yhi);
         t = tn;
     }
     return sum;

@@ -116,19 +116,18 @@ height_fog_store(__global float *restrict out, int n, float16 r, float16 g, floa
 
 #define FP_LANES (float16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)
 
-/* The whole frame: work-item (i, y) computes pixels 16 i .. 16 i + 15 of
- * row y (those past the row's end repeat its last pixel, not stored). */
-__kernel void integrate_height(__global const float *restrict depth,
-                               __global float *restrict fog_out,
-                               __constant const float *restrict view, const int width,
-                               const int height, __constant const float *restrict fp,
-                               __constant const int *lvi, __constant const float *lvf,
-                               __global const float *coef, __global const uchar *occ,
-                               __global const int *pix, const int npix, const float4 fog_color)
+/* Work-item (i, y) of a whole frame: pixels 16 i .. 16 i + 15 of row y
+ * (those past the row's end repeat its last pixel), their fog as lanes;
+ * the number of them in the row (0: none, the work-item is past the
+ * frame), *at the index of the first. */
+inline __attribute__((always_inline)) int
+height_fog_row(__global const float *restrict depth, __constant const float *restrict view,
+               __constant const float *restrict fp, int width, int height, float4 color,
+               size_t *at, float16 *r, float16 *g, float16 *b, float16 *t)
 {
     int x0 = (int)get_global_id(0) * FP_SIMD, y = get_global_id(1);
     if (x0 >= width || y >= height)
-        return;
+        return 0;
     size_t row = (size_t)y * width;
     int n = min(FP_SIMD, width - x0);
     float16 d;
@@ -140,10 +139,28 @@ __kernel void integrate_height(__global const float *restrict depth,
             ld[k] = depth[row + x0 + min(k, n - 1)];
         d = vload16(0, ld);
     }
-    float16 r, g, b, t;
     height_fog_lanes(view, fp, min((float)x0 + FP_LANES, (float)(width - 1)), (float16)((float)y),
-                     d, fog_color, &r, &g, &b, &t);
-    height_fog_store(fog_out + 4 * (row + x0), n, r, g, b, t);
+                     d, color, r, g, b, t);
+    *at = row + x0;
+    return n;
+}
+
+/* The whole frame: work-item (i, y) computes pixels 16 i .. 16 i + 15 of
+ * row y (those past the row's end repeat its last pixel, not stored). */
+__kernel void integrate_height(__global const float *restrict depth,
+                               __global float *restrict fog_out,
+                               __constant const float *restrict view, const int width,
+                               const int height, __constant const float *restrict fp,
+                               __constant const int *lvi, __constant const float *lvf,
+                               __global const float *coef, __global const uchar *occ,
+                               __global const int *pix, const int npix, const float4 fog_color)
+{
+    size_t at;
+    float16 r, g, b, t;
+    int n = height_fog_row(depth, view, fp, width, height, fog_color, &at, &r, &g, &b, &t);
+    if (n == 0)
+        return;
+    height_fog_store(fog_out + 4 * at, n, r, g, b, t);
 }
 
 /* integrate_height with the composite of filters/composite.c done here,
@@ -162,24 +179,12 @@ __kernel void integrate_height_over(__global const float *restrict depth,
                                     __global const int *pix, const int npix, const float4 fog_color)
 {
 #pragma OPENCL FP_CONTRACT OFF
-    int x0 = (int)get_global_id(0) * FP_SIMD, y = get_global_id(1);
-    if (x0 >= width || y >= height)
-        return;
-    size_t row = (size_t)y * width;
-    int n = min(FP_SIMD, width - x0);
-    float16 d;
-    if (n == FP_SIMD) {
-        d = vload16(0, depth + row + x0);
-    } else {
-        float ld[16];
-        for (int k = 0; k < FP_SIMD; k++)
-            ld[k] = depth[row + x0 + min(k, n - 1)];
-        d = vload16(0, ld);
-    }
+    size_t at;
     float16 r, g, b, t;
-    height_fog_lanes(view, fp, min((float)x0 + FP_LANES, (float)(width - 1)), (float16)((float)y),
-                     d, fog_color, &r, &g, &b, &t);
-    __global float *out = rgba + 4 * (row + x0);
+    int n = height_fog_row(depth, view, fp, width, height, fog_color, &at, &r, &g, &b, &t);
+    if (n == 0)
+        return;
+    __global float *out = rgba + 4 * at;
     if (n == FP_SIMD) {
         /* Four pixels per float16: tau and S per channel, alpha lanes
          * passed through by the select (its bits kept, -0 and NaN too). */
