@@ -533,6 +533,33 @@ FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, 
     }
 }
 
+/* int_0^1 F(x) exp(-u x) dx over one segment of a bilinear cell, F =
+ * g0 + g1 sx + g2 sy + g3 sx sy through the corner values c0 (0,0), c1
+ * (1,0), c4 (0,1), c5 (1,1), the segment from local (px, py) by (qx, qy),
+ * written out; *E = exp(-u) from the same series (lam = 0: fog without a
+ * falloff, H infinite: u = 0, the series' first term alone, *E left as it
+ * is; lam is the same for every ray of such fog, so lanes do not
+ * diverge).  fp_grid_walk's linear cells and fp_tensor_walk's rectangles. */
+FP_HOT fp_real fp_bilinear_seg(fp_real c0, fp_real c1, fp_real c4, fp_real c5, fp_real px,
+                               fp_real qx, fp_real py, fp_real qy, fp_real lam, fp_real u,
+                               fp_real *E)
+{
+    fp_real g1 = c1 - c0, g2 = c4 - c0, g3 = c5 - c4 - g1;
+    fp_real P0 = c0 + g1 * px + (g2 + g3 * px) * py;
+    fp_real P1 = g1 * qx + g2 * qy + g3 * (px * qy + qx * py);
+    fp_real P2 = g3 * qx * qy;
+    if (lam == 0)
+        return P0 * fp_recip[0] + P1 * fp_recip[1] + P2 * fp_recip[2];
+    fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
+    for (int j = 0; j < FP_SEG_POW2; j++) {
+        fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
+        cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
+        ce[j] = f;
+    }
+    *E = fp_estrin(ce, -u);
+    return fp_estrin(cs, -u);
+}
+
 /* Bounded level of detail (--lod-bound).  Each cell of level l's grid
  * carries a bound of |F - A_l| there (filters/fogmap.c: for the linear
  * basis its exact largest value, at the finest nodes of the cell, 0 where
@@ -698,26 +725,7 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         fp_real ha = hc, E = 1;
         fp_real seg;
         if (d == 1) {
-            /* Bilinear: F = g0 + g1 sx + g2 sy + g3 sx sy, written out. */
-            fp_real g1 = c[1] - c[0], g2 = c[4] - c[0], g3 = c[5] - c[4] - g1;
-            fp_real P0 = c[0] + g1 * px + (g2 + g3 * px) * py;
-            fp_real P1 = g1 * qx + g2 * qy + g3 * (px * qy + qx * py);
-            fp_real P2 = g3 * qx * qy;
-            if (lam == 0) {
-                /* Fog without a falloff (H infinite): u = 0, the series'
-                 * first term alone (the same sum), h constant.  lam is the
-                 * same for every ray of such fog, so lanes do not diverge. */
-                seg = P0 * fp_recip[0] + P1 * fp_recip[1] + P2 * fp_recip[2];
-            } else {
-                fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
-                for (int j = 0; j < FP_SEG_POW2; j++) {
-                    fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
-                    cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
-                    ce[j] = f;
-                }
-                seg = fp_estrin(cs, -u);
-                E = fp_estrin(ce, -u);
-            }
+            seg = fp_bilinear_seg(c[0], c[1], c[4], c[5], px, qx, py, qy, lam, u, &E);
         } else {
             fp_real P[7];
             fp_cell_poly(d, c, px, qx, py, qy, P);
@@ -935,24 +943,8 @@ FP_HOT fp_real fp_tensor_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const i
         fp_real u = above ? lam * len : (fp_real)0;
         if ((guard & 7) == 0)
             hc = exp(-fmax(ya - y0, (fp_real)0) / H);
-        fp_real ha = hc, E = 1, seg;
-        /* fp_grid_walk's bilinear segment: F = g0 + g1 sx + g2 sy + g3 sx sy. */
-        fp_real g1 = c1 - c0, g2 = c4 - c0, g3 = c5 - c4 - g1;
-        fp_real P0 = c0 + g1 * px + (g2 + g3 * px) * py;
-        fp_real P1 = g1 * qx + g2 * qy + g3 * (px * qy + qx * py);
-        fp_real P2 = g3 * qx * qy;
-        if (lam == 0) {
-            seg = P0 * fp_recip[0] + P1 * fp_recip[1] + P2 * fp_recip[2];
-        } else {
-            fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
-            for (int j = 0; j < FP_SEG_POW2; j++) {
-                fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
-                cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
-                ce[j] = f;
-            }
-            seg = fp_estrin(cs, -u);
-            E = fp_estrin(ce, -u);
-        }
+        fp_real ha = hc, E = 1;
+        fp_real seg = fp_bilinear_seg(c0, c1, c4, c5, px, qx, py, qy, lam, u, &E);
         sum += ha * len * seg;
         hc = ha * E;
         /* Into the next rectangle where the segment ended on its side. */
