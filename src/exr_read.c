@@ -422,13 +422,6 @@ static int setup_part(fp_frame_t *f, int p, const char *where, long frame)
     return FP_OK;
 }
 
-/* The planes of every channel that is kept as bytes: all but the colour
- * channels, which the library decodes straight into the frame's float
- * RGBA (a colour channel that is also the depth channel keeps its bytes).
- * Not when the colour's part holds nothing but the colour: OpenEXR 3.1.5
- * then takes a fast path for 3 or 4 half channels into interleaved floats
- * that puts them in file order (A,B,G,R) whatever the pointers say, so
- * those are decoded as bytes and converted here (to_float_rect). */
 /* A buffer of `bytes` at a page boundary inside a plain malloc block
  * (*mem, what free takes).  posix_memalign's split-off remainders stay
  * between the frames' blocks in glibc's heap and keep them from merging:
@@ -439,6 +432,13 @@ static float *alloc_aligned(size_t bytes, void **mem)
     return *mem ? (float *)(((uintptr_t)*mem + 4095) & ~(uintptr_t)4095) : NULL;
 }
 
+/* The planes of every channel that is kept as bytes: all but the colour
+ * channels, which the library decodes straight into the frame's float
+ * RGBA (a colour channel that is also the depth channel keeps its bytes).
+ * Not when the colour's part holds nothing but the colour: OpenEXR 3.1.5
+ * then takes a fast path for 3 or 4 half channels into interleaved floats
+ * that puts them in file order (A,B,G,R) whatever the pointers say, so
+ * those are decoded as bytes and converted here (to_float_rect). */
 static int alloc_planes(fp_frame_t *f, const char *where, long frame)
 {
     int ncolor = 0;
