@@ -43,10 +43,9 @@ __kernel void integrate_fog(__global const float *depth, __global float4 *fog_ou
  * lanes: the view ray of fp_view_ray with its sky test and depth kinds as
  * selects, then fp_fog_od_nomap_bf (kernels/fog_core.h), all branch-free,
  * so that the CPU device runs it as SIMD code. */
-inline __attribute__((always_inline)) void
+inline __attribute__((always_inline)) float16
 height_fog_lanes(__constant const float *restrict view, __constant const float *restrict fp,
-                 float16 x, float16 y, float16 depth, float4 color, float16 *r, float16 *g,
-                 float16 *b, float16 *t)
+                 float16 x, float16 y, float16 depth)
 {
     __constant const float *h = view + FP_VIEW_H;
     __constant const float *m = view + FP_VIEW_M;
@@ -78,38 +77,35 @@ height_fog_lanes(__constant const float *restrict view, __constant const float *
     float16 inv_l = 1.0f / l;
     float16 od = fp_fog_od_nomap_bf(fp, view[0], view[1], view[2], dx * inv_l, dy * inv_l,
                                     dz * inv_l, len);
-    float16 tau = exp(-od);
-    *r = (1.0f - tau) * color.x;
-    *g = (1.0f - tau) * color.y;
-    *b = (1.0f - tau) * color.z;
-    *t = tau;
+    return exp(-od);
 }
 
-/* Lanes j .. j + 3 of (r, g, b, t) as four RGBA pixels. */
-#define FP_RGBA4(r, g, b, t, j0, j1, j2, j3)                                                   \
-    (float16)(r.s##j0, g.s##j0, b.s##j0, t.s##j0, r.s##j1, g.s##j1, b.s##j1, t.s##j1, r.s##j2, \
-              g.s##j2, b.s##j2, t.s##j2, r.s##j3, g.s##j3, b.s##j3, t.s##j3)
-
-/* Store n <= 16 pixels of lanes at out (RGBA each). */
-inline __attribute__((always_inline)) void
-height_fog_store(__global float *restrict out, int n, float16 r, float16 g, float16 b, float16 t)
+/* The layer's four pixels from their spread tau: S = (1 - tau) * color
+ * (seed 000 eq. 4) in the RGB lanes, tau in the alpha lanes. */
+inline __attribute__((always_inline)) float16 height_fog_rgba4(float16 ts, float16 color4)
 {
+    const int16 alpha = (int16)(0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1);
+    return select((1.0f - ts) * color4, ts, alpha);
+}
+
+/* Store the layer of n <= 16 pixels of lanes tau at out (RGBA each). */
+inline __attribute__((always_inline)) void
+height_fog_store(__global float *restrict out, int n, float16 t, float4 color)
+{
+    float16 color4 = (float16)(color.xyz, 0.0f, color.xyz, 0.0f, color.xyz, 0.0f, color.xyz, 0.0f);
     if (n == 16) {
-        vstore16(FP_RGBA4(r, g, b, t, 0, 1, 2, 3), 0, out);
-        vstore16(FP_RGBA4(r, g, b, t, 4, 5, 6, 7), 1, out);
-        vstore16(FP_RGBA4(r, g, b, t, 8, 9, a, b), 2, out);
-        vstore16(FP_RGBA4(r, g, b, t, c, d, e, f), 3, out);
+        vstore16(height_fog_rgba4(t.s0000111122223333, color4), 0, out);
+        vstore16(height_fog_rgba4(t.s4444555566667777, color4), 1, out);
+        vstore16(height_fog_rgba4(t.s88889999aaaabbbb, color4), 2, out);
+        vstore16(height_fog_rgba4(t.sccccddddeeeeffff, color4), 3, out);
         return;
     }
-    float lr[16], lg[16], lb[16], lt[16];
-    vstore16(r, 0, lr);
-    vstore16(g, 0, lg);
-    vstore16(b, 0, lb);
+    float lt[16];
     vstore16(t, 0, lt);
     for (int k = 0; k < n; k++) {
-        out[4 * k] = lr[k];
-        out[4 * k + 1] = lg[k];
-        out[4 * k + 2] = lb[k];
+        out[4 * k] = (1.0f - lt[k]) * color.x;
+        out[4 * k + 1] = (1.0f - lt[k]) * color.y;
+        out[4 * k + 2] = (1.0f - lt[k]) * color.z;
         out[4 * k + 3] = lt[k];
     }
 }
@@ -122,8 +118,8 @@ height_fog_store(__global float *restrict out, int n, float16 r, float16 g, floa
  * frame), *at the index of the first. */
 inline __attribute__((always_inline)) int
 height_fog_row(__global const float *restrict depth, __constant const float *restrict view,
-               __constant const float *restrict fp, int width, int height, float4 color,
-               size_t *at, float16 *r, float16 *g, float16 *b, float16 *t)
+               __constant const float *restrict fp, int width, int height, size_t *at,
+               float16 *t)
 {
     int x0 = (int)get_global_id(0) * FP_SIMD, y = get_global_id(1);
     if (x0 >= width || y >= height)
@@ -139,8 +135,8 @@ height_fog_row(__global const float *restrict depth, __constant const float *res
             ld[k] = depth[row + x0 + min(k, n - 1)];
         d = vload16(0, ld);
     }
-    height_fog_lanes(view, fp, min((float)x0 + FP_LANES, (float)(width - 1)), (float16)((float)y),
-                     d, color, r, g, b, t);
+    *t = height_fog_lanes(view, fp, min((float)x0 + FP_LANES, (float)(width - 1)),
+                          (float16)((float)y), d);
     *at = row + x0;
     return n;
 }
@@ -156,11 +152,11 @@ __kernel void integrate_height(__global const float *restrict depth,
                                __global const int *pix, const int npix, const float4 fog_color)
 {
     size_t at;
-    float16 r, g, b, t;
-    int n = height_fog_row(depth, view, fp, width, height, fog_color, &at, &r, &g, &b, &t);
+    float16 t;
+    int n = height_fog_row(depth, view, fp, width, height, &at, &t);
     if (n == 0)
         return;
-    height_fog_store(fog_out + 4 * at, n, r, g, b, t);
+    height_fog_store(fog_out + 4 * at, n, t, fog_color);
 }
 
 /* integrate_height with the composite of filters/composite.c done here,
@@ -180,39 +176,37 @@ __kernel void integrate_height_over(__global const float *restrict depth,
 {
 #pragma OPENCL FP_CONTRACT OFF
     size_t at;
-    float16 r, g, b, t;
-    int n = height_fog_row(depth, view, fp, width, height, fog_color, &at, &r, &g, &b, &t);
+    float16 t;
+    int n = height_fog_row(depth, view, fp, width, height, &at, &t);
     if (n == 0)
         return;
     __global float *out = rgba + 4 * at;
     if (n == FP_SIMD) {
-        /* Four pixels per float16: tau and S per channel, alpha lanes
-         * passed through by the select (its bits kept, -0 and NaN too). */
+        /* Four pixels per float16: tau spread over each pixel's four
+         * lanes (one permute), S from it as the layer has it, alpha
+         * lanes passed through by the select (its bits kept, -0 and NaN
+         * too). */
+        float16 color4 = (float16)(fog_color.xyz, 0.0f, fog_color.xyz, 0.0f, fog_color.xyz, 0.0f,
+                                   fog_color.xyz, 0.0f);
         const int16 alpha = (int16)(0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1);
+        float16 t0 = t.s0000111122223333, t1 = t.s4444555566667777, t2 = t.s88889999aaaabbbb,
+                t3 = t.sccccddddeeeeffff;
         float16 c0 = vload16(0, out), c1 = vload16(1, out), c2 = vload16(2, out),
                 c3 = vload16(3, out);
-        float16 s0 = FP_RGBA4(r, g, b, t, 0, 1, 2, 3), s1 = FP_RGBA4(r, g, b, t, 4, 5, 6, 7),
-                s2 = FP_RGBA4(r, g, b, t, 8, 9, a, b), s3 = FP_RGBA4(r, g, b, t, c, d, e, f);
-        /* tau spread over each pixel's four lanes: s's fourth, in-lane. */
-        float16 t0 = s0.s33337777bbbbffff, t1 = s1.s33337777bbbbffff,
-                t2 = s2.s33337777bbbbffff, t3 = s3.s33337777bbbbffff;
         float16 p0 = t0 * c0, p1 = t1 * c1, p2 = t2 * c2, p3 = t3 * c3;
-        vstore16(select(p0 + s0, c0, alpha), 0, out);
-        vstore16(select(p1 + s1, c1, alpha), 1, out);
-        vstore16(select(p2 + s2, c2, alpha), 2, out);
-        vstore16(select(p3 + s3, c3, alpha), 3, out);
+        vstore16(select(p0 + (1.0f - t0) * color4, c0, alpha), 0, out);
+        vstore16(select(p1 + (1.0f - t1) * color4, c1, alpha), 1, out);
+        vstore16(select(p2 + (1.0f - t2) * color4, c2, alpha), 2, out);
+        vstore16(select(p3 + (1.0f - t3) * color4, c3, alpha), 3, out);
         return;
     }
-    float lr[16], lg[16], lb[16], lt[16];
-    vstore16(r, 0, lr);
-    vstore16(g, 0, lg);
-    vstore16(b, 0, lb);
+    float lt[16];
     vstore16(t, 0, lt);
     for (int k = 0; k < n; k++) {
         float pr = lt[k] * out[4 * k], pg = lt[k] * out[4 * k + 1], pb = lt[k] * out[4 * k + 2];
-        out[4 * k] = pr + lr[k];
-        out[4 * k + 1] = pg + lg[k];
-        out[4 * k + 2] = pb + lb[k];
+        out[4 * k] = pr + (1.0f - lt[k]) * fog_color.x;
+        out[4 * k + 1] = pg + (1.0f - lt[k]) * fog_color.y;
+        out[4 * k + 2] = pb + (1.0f - lt[k]) * fog_color.z;
     }
 }
 
@@ -239,8 +233,6 @@ __kernel void integrate_height_list(__global const float *restrict depth,
         ly[k] = (float)y;
         ld[k] = depth[p];
     }
-    float16 r, g, b, t;
-    height_fog_lanes(view, fp, vload16(0, lx), vload16(0, ly), vload16(0, ld), fog_color, &r, &g,
-                     &b, &t);
-    height_fog_store(fog_out + 4 * (size_t)k0, n, r, g, b, t);
+    float16 t = height_fog_lanes(view, fp, vload16(0, lx), vload16(0, ly), vload16(0, ld));
+    height_fog_store(fog_out + 4 * (size_t)k0, n, t, fog_color);
 }
