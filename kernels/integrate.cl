@@ -39,8 +39,9 @@ __kernel void integrate_fog(__global const float *depth, __global float4 *fog_ou
 }
 
 /* Fog without a fogmap (the host's choice when FP_F_HAS_MAP is 0): the
- * layer of integrate_fog for FP_SIMD (16) pixels per work-item, as float16
- * lanes: the view ray of fp_view_ray with its sky test and depth kinds as
+ * transmittance tau of integrate_fog for FP_SIMD (16) pixels per
+ * work-item, as float16 lanes (the layer follows from it: S = (1 - tau) *
+ * fog color, height_fog_rgba4): the view ray of fp_view_ray with its sky test and depth kinds as
  * selects, then fp_fog_od_nomap_bf (kernels/fog_core.h), all branch-free,
  * so that the CPU device runs it as SIMD code. */
 inline __attribute__((always_inline)) float16
@@ -80,8 +81,16 @@ height_fog_lanes(__constant const float *restrict view, __constant const float *
     return exp(-od);
 }
 
-/* The layer's four pixels from their spread tau: S = (1 - tau) * color
- * (seed 000 eq. 4) in the RGB lanes, tau in the alpha lanes. */
+/* The fog color in the RGB lanes of four RGBA pixels. */
+inline __attribute__((always_inline)) float16 height_fog_color4(float4 color)
+{
+    return (float16)(color.xyz, 0.0f, color.xyz, 0.0f, color.xyz, 0.0f, color.xyz, 0.0f);
+}
+
+/* The layer of four pixels from their tau spread over each pixel's four
+ * lanes (t.s0000111122223333 and so on: one permute, where a transpose of
+ * four float16 (r, g, b, tau) costs more than the fog): S = (1 - tau) *
+ * color (seed 000 eq. 4) in the RGB lanes, tau in the alpha lanes. */
 inline __attribute__((always_inline)) float16 height_fog_rgba4(float16 ts, float16 color4)
 {
     const int16 alpha = (int16)(0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1);
@@ -92,7 +101,7 @@ inline __attribute__((always_inline)) float16 height_fog_rgba4(float16 ts, float
 inline __attribute__((always_inline)) void
 height_fog_store(__global float *restrict out, int n, float16 t, float4 color)
 {
-    float16 color4 = (float16)(color.xyz, 0.0f, color.xyz, 0.0f, color.xyz, 0.0f, color.xyz, 0.0f);
+    float16 color4 = height_fog_color4(color);
     if (n == 16) {
         vstore16(height_fog_rgba4(t.s0000111122223333, color4), 0, out);
         vstore16(height_fog_rgba4(t.s4444555566667777, color4), 1, out);
@@ -182,22 +191,20 @@ __kernel void integrate_height_over(__global const float *restrict depth,
         return;
     __global float *out = rgba + 4 * at;
     if (n == FP_SIMD) {
-        /* Four pixels per float16: tau spread over each pixel's four
-         * lanes (one permute), S from it as the layer has it, alpha
-         * lanes passed through by the select (its bits kept, -0 and NaN
-         * too). */
-        float16 color4 = (float16)(fog_color.xyz, 0.0f, fog_color.xyz, 0.0f, fog_color.xyz, 0.0f,
-                                   fog_color.xyz, 0.0f);
+        /* Four pixels per float16: tau * plate + S in the RGB lanes, the
+         * alpha lanes passed through by the select (its bits kept, -0
+         * and NaN too). */
         const int16 alpha = (int16)(0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1);
+        float16 color4 = height_fog_color4(fog_color);
         float16 t0 = t.s0000111122223333, t1 = t.s4444555566667777, t2 = t.s88889999aaaabbbb,
                 t3 = t.sccccddddeeeeffff;
         float16 c0 = vload16(0, out), c1 = vload16(1, out), c2 = vload16(2, out),
                 c3 = vload16(3, out);
         float16 p0 = t0 * c0, p1 = t1 * c1, p2 = t2 * c2, p3 = t3 * c3;
-        vstore16(select(p0 + (1.0f - t0) * color4, c0, alpha), 0, out);
-        vstore16(select(p1 + (1.0f - t1) * color4, c1, alpha), 1, out);
-        vstore16(select(p2 + (1.0f - t2) * color4, c2, alpha), 2, out);
-        vstore16(select(p3 + (1.0f - t3) * color4, c3, alpha), 3, out);
+        vstore16(select(p0 + height_fog_rgba4(t0, color4), c0, alpha), 0, out);
+        vstore16(select(p1 + height_fog_rgba4(t1, color4), c1, alpha), 1, out);
+        vstore16(select(p2 + height_fog_rgba4(t2, color4), c2, alpha), 2, out);
+        vstore16(select(p3 + height_fog_rgba4(t3, color4), c3, alpha), 3, out);
         return;
     }
     float lt[16];
