@@ -1,6 +1,8 @@
-// fogpipe: extern "C" bridge to OpenImageIO 2.4 (see oiio_bridge.h).
-// C++ stays in this file: every entry point catches everything, prints one
-// line through fp_error() and returns a status.
+// fogpipe: extern "C" bridge to OpenImageIO 2.4 (see oiio_bridge.h), the
+// module fogpipe_oiio.so.  C++ stays in this file: every entry point
+// catches everything, prints one line through fp_error() and returns a
+// status.
+#include "config.h"
 #include "oiio_bridge.h"
 
 #include <OpenImageIO/imagebuf.h>
@@ -24,6 +26,15 @@
 extern "C" {
 #include "fp.h"
 }
+
+// The host's fp_error and fp_warn (the module is loaded into a process
+// whose messages go where the host says: src/fp.h), set by fp_oiio_module.
+namespace {
+fp_oiio_error_fn host_error;
+fp_oiio_warn_fn host_warn;
+}  // namespace
+#define fp_error host_error
+#define fp_warn host_warn
 
 using OIIO::ImageBuf;
 using OIIO::ImageInput;
@@ -291,8 +302,9 @@ int write_pixels(const char *path, const float *pixels, int width, int height, i
 
 }  // namespace
 
-extern "C" int fp_oiio_read_channel(const char *path, const char *channel, float **data,
-                                    int *width, int *height)
+namespace {
+
+int read_channel(const char *path, const char *channel, float **data, int *width, int *height)
 {
     return guarded(path, "reading the image", [&]() -> int {
         if (!path || !*path || !data || !width || !height)
@@ -334,16 +346,16 @@ extern "C" int fp_oiio_read_channel(const char *path, const char *channel, float
     });
 }
 
-extern "C" int fp_oiio_write_preview(const char *path, const float *pixels, int width,
-                                     int height, int nchannels, int bits, int dither)
+int write_preview(const char *path, const float *pixels, int width, int height, int nchannels,
+                  int bits, int dither)
 {
     return guarded(path, "writing the image", [&]() -> int {
         return write_pixels(path, pixels, width, height, nchannels, bits, dither != 0, false);
     });
 }
 
-extern "C" int fp_oiio_tile_sheet(const char *const *paths, int count, int columns,
-                                  int max_size, const char *out_path)
+int tile_sheet(const char *const *paths, int count, int columns, int max_size,
+               const char *out_path)
 {
     return guarded(out_path, "making the contact sheet", [&]() -> int {
         if (!out_path || !*out_path)
@@ -416,4 +428,17 @@ extern "C" int fp_oiio_tile_sheet(const char *const *paths, int count, int colum
         return write_pixels(out_path, sheet.data(), tw * columns, th * rows, first.nchannels,
                             bits, false, true);
     });
+}
+
+const fp_oiio_module_t module = { FP_OIIO_ABI, PACKAGE_VERSION, read_channel, write_preview,
+                                  tile_sheet };
+
+}  // namespace
+
+extern "C" __attribute__((visibility("default"))) const fp_oiio_module_t *
+fp_oiio_module(fp_oiio_error_fn error, fp_oiio_warn_fn warn)
+{
+    host_error = error;
+    host_warn = warn;
+    return &module;
 }

@@ -69,6 +69,32 @@ int fp_oiio_write_preview(const char *path, const float *pixels, int width, int 
 int fp_oiio_tile_sheet(const char *const *paths, int count, int columns, int max_size,
                        const char *out_path);
 
+/* The bridge is a module (fogpipe_oiio.so, built from src/oiio_bridge.cpp
+ * and installed in $(pkglibdir)), loaded by the functions above
+ * (src/oiio_load.c) the first time an image other than an EXR frame is
+ * read or written: OpenImageIO links some 260 libraries, whose loading
+ * cost every fogpipe process 0.2-0.3 s of CPU at start-up, most of which
+ * never touch anything but EXR.  The module prints through the host's
+ * messages (fp_error and fp_warn, passed in: per-thread sinks, the
+ * library's emitter) and returns its entry points. */
+#define FP_OIIO_ABI 1
+typedef int (*fp_oiio_error_fn)(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+typedef void (*fp_oiio_warn_fn)(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+typedef struct fp_oiio_module_t {
+    int abi;             /* FP_OIIO_ABI of the module */
+    const char *version; /* PACKAGE_VERSION it was built with */
+    int (*read_channel)(const char *path, const char *channel, float **data, int *width,
+                        int *height);
+    int (*write_preview)(const char *path, const float *pixels, int width, int height,
+                         int nchannels, int bits, int dither);
+    int (*tile_sheet)(const char *const *paths, int count, int columns, int max_size,
+                      const char *out_path);
+} fp_oiio_module_t;
+/* The module's one exported symbol (FP_OIIO_ENTRY): called once, with the
+ * host's message functions. */
+#define FP_OIIO_ENTRY "fp_oiio_module"
+typedef const fp_oiio_module_t *(*fp_oiio_entry_fn)(fp_oiio_error_fn error, fp_oiio_warn_fn warn);
+
 #ifdef __cplusplus
 }
 #endif

@@ -46,6 +46,13 @@ if env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install DES
     check "the installed Python module loads the installed library" sh -c '
       cd / && PYTHONPATH=$(echo "$1"/opt/fp/lib/python3*/dist-packages) \
         FOGPIPE_LIBRARY="$1/opt/fp/lib/libfogpipe.so.0" "$2" -c "import fogpipe; print(fogpipe.version())"' sh "$D" "$PY"
+    # The library loads the OpenImageIO module installed beside it.
+    "$OIIOTOOL" --pattern constant:color=0.5 32x32 1 -d uint8 -o "$T/fm.png"
+    check "the installed library reads a PNG fogmap through lib/fogpipe/fogpipe_oiio.so" sh -c '
+      cd / && test -f "$1/opt/fp/lib/fogpipe/fogpipe_oiio.so" &&
+      PYTHONPATH=$(echo "$1"/opt/fp/lib/python3*/dist-packages) FOGPIPE_LIBRARY="$1/opt/fp/lib/libfogpipe.so.0" \
+        "$2" -c "import sys, fogpipe; fogpipe.apply_file(sys.argv[1], sys.argv[2], fogmap=sys.argv[3], quiet=True)" \
+        "$3" "$4/py-fm.exr" "$4/fm.png" && test -s "$4/py-fm.exr"' sh "$D" "$PY" "$IN" "$T"
   else
     skip "python3 with numpy"
   fi

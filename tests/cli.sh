@@ -216,6 +216,29 @@ if [ -n "${FP_BUILDDIR:-}" ] && env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s 
     "$1/opt/fp/bin/fogpipe" -v --preset night-street-lamps -i "$2" -o "$3" 2>&1 |
     grep -q "preset: $1/opt/fp/bin/../share/fogpipe/presets/night-street-lamps.preset"' \
     sh "$T/dest" "$S/scene.0001.exr" "$T/installed-preset.exr"
+  # OpenImageIO: a module loaded when first needed (src/oiio_bridge.h).
+  check "installed: lib/fogpipe/fogpipe_oiio.so; fogpipe itself does not link OpenImageIO" sh -c '
+    test -f "$1/opt/fp/lib/fogpipe/fogpipe_oiio.so" && ldd "$1/opt/fp/bin/fogpipe" > "$2/ldd.txt" &&
+    ! grep -q libOpenImageIO "$2/ldd.txt"' sh "$T/dest" "$T"
+  "$OIIOTOOL" --pattern constant:color=0.5 32x32 1 -d uint8 -o "$T/fm.png"
+  check "installed fogpipe reads a PNG fogmap through its module, from /" sh -c 'cd / &&
+    "$1/opt/fp/bin/fogpipe" --fogmap "$2" -i "$3" -o "$4"' \
+    sh "$T/dest" "$T/fm.png" "$S/scene.0001.exr" "$T/installed-fm.exr"
+  rm -f "$T/dest/opt/fp/lib/fogpipe/fogpipe_oiio.so"
+  if [ ! -e "${FP_MODULE_DIR:-/nonexistent}/fogpipe_oiio.so" ]; then
+    fails "installed fogpipe without its module: the fogmap, named with the module" 1 \
+      "fm\.png.*fogpipe_oiio\.so" "$T/installed-nomod.exr" \
+      "$T/dest/opt/fp/bin/fogpipe" --fogmap "$T/fm.png" -i "$S/scene.0001.exr" -o "$T/installed-nomod.exr"
+    echo "not a module" > "$T/dest/opt/fp/lib/fogpipe/fogpipe_oiio.so"
+    fails "installed fogpipe with a broken module: the fogmap, named with why it did not load" 1 \
+      "fm\.png.*fogpipe_oiio\.so, which did not load: .*fogpipe_oiio\.so" "$T/installed-badmod.exr" \
+      "$T/dest/opt/fp/bin/fogpipe" --fogmap "$T/fm.png" -i "$S/scene.0001.exr" -o "$T/installed-badmod.exr"
+    rm -f "$T/dest/opt/fp/lib/fogpipe/fogpipe_oiio.so"
+  else
+    skip "a fogpipe_oiio.so is installed in $FP_MODULE_DIR"
+  fi
+  check "... and fogs EXR frames without it" \
+    "$T/dest/opt/fp/bin/fogpipe" -i "$S/scene.0001.exr" -o "$T/installed-nomod2.exr"
 else
   not_ok "make install DESTDIR"; diag "$T/install.txt" 2>/dev/null || true
 fi
