@@ -1476,6 +1476,66 @@ FP_FN_SIMD fp_vreal fp_height_od_bf(fp_real sigma, fp_real y0, fp_real H, fp_rea
     return sigma > 0 ? od : FP_VR(0);
 }
 
+/* fp_height_od on rays that all start at the height oy (a perspective
+ * camera's, the same in every lane) and run over t in [0, len], with one
+ * exp a lane where fp_height_od_bf has two.  The layer's part is entered at
+ * a height that is one of three numbers whichever the lane (oy inside the
+ * layer, y0 rising into it from below, top falling into it from above), so
+ * its exp(-(yc - y0) / H) is the same in every lane; only the exit's is
+ * not.  Over a part of length s with x = dy s / H (negative falling):
+ * exp(-(yc - y0)/H) s (1 - exp(-x)) / x = H / dy (E_in - E_out), the
+ * difference of the two ends' densities, losing at most 8 ulp where |x| >=
+ * 1/8 (one end at least e^(1/8) times the other); below that the Taylor
+ * series of (1 - exp(-x)) / x (either sign; the first term left out is
+ * x^7/8! < 2e-11); a part without an end (rising forever) E_in H / dy.
+ * inv_dy = 1 / dy (infinite for dy = 0). */
+FP_FN_SIMD fp_vreal fp_height_od_from_bf(fp_real sigma, fp_real y0, fp_real H, fp_real top,
+                                         fp_real oy, fp_vreal dy, fp_vreal inv_dy, fp_vreal len)
+{
+    fp_real inv_h = 1 / H, base = fmin(y0, top);
+    fp_vint up = dy > FP_VR(0), down = dy < FP_VR(0);
+    /* Below the base (density 1): from the origin until a rising ray
+     * crosses it, or from where a falling one does. */
+    fp_vreal t_base = (base - oy) * inv_dy, below;
+    if (oy < base)
+        below = up ? fmin(len, t_base) : len;
+    else
+        below = down ? fmax(len - t_base, FP_VR(0)) : FP_VR(0);
+    fp_vreal above = FP_VR(0);
+    if (y0 < top) {
+        /* The part in the layer: its length s, entered at yc. */
+        fp_vreal t_y0 = (y0 - oy) * inv_dy, t_top = (top - oy) * inv_dy, s;
+        fp_real yc;
+        if (oy < y0) {
+            s = up ? fmax(fmin(len, t_top) - t_y0, FP_VR(0)) : FP_VR(0);
+            yc = y0;
+        } else if (oy < top) {
+            fp_vreal level = down ? fmin(len, t_y0) : len;
+            s = up ? fmin(len, t_top) : level;
+            yc = oy;
+        } else {
+            s = down ? fmax(fmin(len, t_y0) - t_top, FP_VR(0)) : FP_VR(0);
+            yc = top;
+        }
+        fp_real ya = (yc - y0) * inv_h, e_in = exp(-ya);
+        fp_vreal x = dy * s * inv_h;
+        fp_vreal series =
+            1 - x * ((fp_real)1 / 2 -
+                     x * ((fp_real)1 / 6 -
+                          x * ((fp_real)1 / 24 -
+                               x * ((fp_real)1 / 120 -
+                                    x * ((fp_real)1 / 720 - x * ((fp_real)1 / 5040))))));
+        fp_vreal ends = H * inv_dy * (e_in - exp(-(ya + x)));
+        fp_vreal bounded = fabs(x) < FP_VR(0.125) ? e_in * s * series : ends;
+        /* Without an end: rising forever, or level (density e_in all the way). */
+        fp_vreal level = FP_VR(e_in > 0 ? FP_INF : 0);
+        fp_vreal endless = up ? e_in * H * inv_dy : level;
+        above = isinf(s) ? endless : bounded;
+    }
+    fp_vreal od = sigma * (below + above);
+    return sigma > 0 ? od : FP_VR(0);
+}
+
 FP_FN_SIMD void fp_clip_bf(fp_vreal o, fp_vreal dd, fp_real lo, fp_real hi, fp_vreal *a,
                            fp_vreal *b)
 {
@@ -1499,21 +1559,22 @@ FP_FN_SIMD fp_vreal fp_fog_od_nomap_bf(FP_CONSTANT const fp_real *fp, fp_real ox
     fp_vreal inv_dy = 1 / dy;
     fp_vreal od = FP_VR(0);
     if (fp[FP_F_HAZE] > 0)
-        od = fp_height_od_bf(fp[FP_F_HAZE], fp[FP_F_HAZE + 1], fp[FP_F_HAZE + 2],
-                             fp[FP_F_HAZE + 3], FP_VR(oy), dy, inv_dy, len);
+        od = fp_height_od_from_bf(fp[FP_F_HAZE], fp[FP_F_HAZE + 1], fp[FP_F_HAZE + 2],
+                                  fp[FP_F_HAZE + 3], oy, dy, inv_dy, len);
     fp_real c = fp[FP_F_COS], s = fp[FP_F_SIN];
     fp_real px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
-    fp_vreal a = FP_VR(0), b = len;
     int boxed = 0;
     for (int i = 0; i < 6; i++)
         boxed |= !isinf(fp[FP_F_BOX + i]);
-    if (boxed) {
-        fp_clip_bf(FP_VR(c * px - s * pz), c * dx - s * dz, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a,
-                   &b);
-        fp_clip_bf(FP_VR(py), dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
-        fp_clip_bf(FP_VR(s * px + c * pz), s * dx + c * dz, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5],
-                   &a, &b);
-    }
+    if (!boxed)
+        return od + fp_height_od_from_bf(fp[FP_F_SIGMA], fp[FP_F_Y0], fp[FP_F_H], fp[FP_F_TOP],
+                                         py, dy, inv_dy, len);
+    /* In the box: [a, b] of every lane its own, from its own height. */
+    fp_vreal a = FP_VR(0), b = len;
+    fp_clip_bf(FP_VR(c * px - s * pz), c * dx - s * dz, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a, &b);
+    fp_clip_bf(FP_VR(py), dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
+    fp_clip_bf(FP_VR(s * px + c * pz), s * dx + c * dz, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], &a,
+               &b);
     fp_vreal fog_main = fp_height_od_bf(fp[FP_F_SIGMA], fp[FP_F_Y0], fp[FP_F_H], fp[FP_F_TOP],
                                         py + a * dy, dy, inv_dy, b - a);
     return od + (b > a ? fog_main : FP_VR(0));
