@@ -1424,6 +1424,17 @@ typedef int fp_vint;
 #endif
 #define FP_VR(x) ((fp_vreal)(x))
 
+/* (1 - exp(-x)) / x by its Taylor series, for |x| < 1/8 (the first term
+ * left out is x^7/8! < 2e-11 relative), where 1 - exp(-x) would cancel. */
+FP_FN_SIMD fp_vreal fp_ratio_series(fp_vreal x)
+{
+    return 1 - x * ((fp_real)1 / 2 -
+                    x * ((fp_real)1 / 6 -
+                         x * ((fp_real)1 / 24 -
+                              x * ((fp_real)1 / 120 -
+                                   x * ((fp_real)1 / 720 - x * ((fp_real)1 / 5040))))));
+}
+
 FP_FN_SIMD void fp_slab_bf(fp_vreal oy, fp_vreal dy, fp_vreal inv_dy, fp_real lo, fp_real hi,
                            fp_vreal len, fp_vreal *a, fp_vreal *b)
 {
@@ -1455,15 +1466,10 @@ FP_FN_SIMD fp_vreal fp_height_od_bf(fp_real sigma, fp_real y0, fp_real H, fp_rea
     fp_vreal m = dy < FP_VR(0) ? ya - D : ya;
     /* Unbounded only with dy >= 0, where m = ya. */
     fp_vreal em = exp(-m);
-    /* (1 - exp(-D)) / D: its Taylor series below 1/8 (the first term left
-     * out is D^7/8! < 2e-11), exp above, where 1 - exp(-D) loses at most
-     * 8 ulp of single precision (expm1 is a call PoCL does not inline). */
-    fp_vreal series =
-        1 - D * ((fp_real)1 / 2 -
-                 D * ((fp_real)1 / 6 -
-                      D * ((fp_real)1 / 24 -
-                           D * ((fp_real)1 / 120 -
-                                D * ((fp_real)1 / 720 - D * ((fp_real)1 / 5040))))));
+    /* (1 - exp(-D)) / D: its Taylor series below 1/8, exp above, where
+     * 1 - exp(-D) loses at most 8 ulp of single precision (expm1 is a call
+     * PoCL does not inline). */
+    fp_vreal series = fp_ratio_series(D);
     fp_vreal ratio_big = (1 - exp(-D)) / D;
     fp_vreal ratio = D < FP_VR(0.125) ? series : ratio_big;
     fp_vreal bounded = (ef - c) * em * ratio;
@@ -1519,12 +1525,7 @@ FP_FN_SIMD fp_vreal fp_height_od_from_bf(fp_real sigma, fp_real y0, fp_real H, f
         }
         fp_real ya = (yc - y0) * inv_h, e_in = exp(-ya);
         fp_vreal x = dy * s * inv_h;
-        fp_vreal series =
-            1 - x * ((fp_real)1 / 2 -
-                     x * ((fp_real)1 / 6 -
-                          x * ((fp_real)1 / 24 -
-                               x * ((fp_real)1 / 120 -
-                                    x * ((fp_real)1 / 720 - x * ((fp_real)1 / 5040))))));
+        fp_vreal series = fp_ratio_series(x);
         fp_vreal ends = H * inv_dy * (e_in - exp(-(ya + x)));
         fp_vreal bounded = fabs(x) < FP_VR(0.125) ? e_in * s * series : ends;
         /* Without an end: rising forever, or level (density e_in all the way). */
