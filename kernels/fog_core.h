@@ -1516,8 +1516,8 @@ FP_FN_SIMD fp_vreal fp_height_od_from_bf(fp_real sigma, fp_real y0, fp_real H, f
             s = up ? fmax(fmin(len, t_top) - t_y0, FP_VR(0)) : FP_VR(0);
             yc = y0;
         } else if (oy < top) {
-            fp_vreal level = down ? fmin(len, t_y0) : len;
-            s = up ? fmin(len, t_top) : level;
+            fp_vreal not_up = down ? fmin(len, t_y0) : len;
+            s = up ? fmin(len, t_top) : not_up;
             yc = oy;
         } else {
             s = down ? fmax(fmin(len, t_y0) - t_top, FP_VR(0)) : FP_VR(0);

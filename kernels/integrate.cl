@@ -41,9 +41,10 @@ __kernel void integrate_fog(__global const float *depth, __global float4 *fog_ou
 /* Fog without a fogmap (the host's choice when FP_F_HAS_MAP is 0): the
  * transmittance tau of integrate_fog for FP_SIMD (16) pixels per
  * work-item, as float16 lanes (the layer follows from it: S = (1 - tau) *
- * fog color, height_fog_rgba4): the view ray of fp_view_ray with its sky test and depth kinds as
- * selects, then fp_fog_od_nomap_bf (kernels/fog_core.h), all branch-free,
- * so that the CPU device runs it as SIMD code. */
+ * fog color, height_fog_rgba4): the view ray of fp_view_ray with its sky
+ * test and depth kinds as selects, then fp_fog_od_nomap_bf
+ * (kernels/fog_core.h), all branch-free, so that the CPU device runs it as
+ * SIMD code. */
 inline __attribute__((always_inline)) float16
 height_fog_lanes(__constant const float *restrict view, __constant const float *restrict fp,
                  float16 x, float16 y, float16 depth)
@@ -81,6 +82,9 @@ height_fog_lanes(__constant const float *restrict view, __constant const float *
     return exp(-od);
 }
 
+/* The alpha lanes of four RGBA pixels (a select's mask). */
+#define FP_ALPHA_LANES (int16)(0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1)
+
 /* The fog color in the RGB lanes of four RGBA pixels. */
 inline __attribute__((always_inline)) float16 height_fog_color4(float4 color)
 {
@@ -93,8 +97,7 @@ inline __attribute__((always_inline)) float16 height_fog_color4(float4 color)
  * color (seed 000 eq. 4) in the RGB lanes, tau in the alpha lanes. */
 inline __attribute__((always_inline)) float16 height_fog_rgba4(float16 ts, float16 color4)
 {
-    const int16 alpha = (int16)(0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1);
-    return select((1.0f - ts) * color4, ts, alpha);
+    return select((1.0f - ts) * color4, ts, FP_ALPHA_LANES);
 }
 
 /* Store the layer of n <= 16 pixels of lanes tau at out (RGBA each). */
@@ -194,7 +197,7 @@ __kernel void integrate_height_over(__global const float *restrict depth,
         /* Four pixels per float16: tau * plate + S in the RGB lanes, the
          * alpha lanes passed through by the select (its bits kept, -0
          * and NaN too). */
-        const int16 alpha = (int16)(0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1);
+        const int16 alpha = FP_ALPHA_LANES;
         float16 color4 = height_fog_color4(fog_color);
         float16 t0 = t.s0000111122223333, t1 = t.s4444555566667777, t2 = t.s88889999aaaabbbb,
                 t3 = t.sccccddddeeeeffff;
