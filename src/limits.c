@@ -1,0 +1,52 @@
+/* fogpipe: the one budget for every image fogpipe reads (src/limits.h). */
+#include "limits.h"
+
+#include "fp.h"
+
+static fp_image_limits_t limits = {
+    FP_LIMIT_PIXELS, FP_LIMIT_DIM, FP_LIMIT_LINE_BYTES, FP_LIMIT_CHANNELS,
+    FP_LIMIT_PARTS
+};
+
+void fp_image_limits_default(fp_image_limits_t *l)
+{
+    l->max_pixels = FP_LIMIT_PIXELS;
+    l->max_dim = FP_LIMIT_DIM;
+    l->max_line_bytes = FP_LIMIT_LINE_BYTES;
+    l->max_channels = FP_LIMIT_CHANNELS;
+    l->max_parts = FP_LIMIT_PARTS;
+}
+
+const fp_image_limits_t *fp_image_limits(void) { return &limits; }
+
+void fp_image_limits_set(const fp_image_limits_t *l) { limits = *l; }
+
+int fp_image_limits_check(const char *file, long frame, const char *kind,
+                          int64_t width, int64_t height, int64_t channels,
+                          int64_t bytes_per_sample)
+{
+    char fr[32] = "";
+    if (frame >= 0)
+        snprintf(fr, sizeof fr, " frame %ld:", frame);
+    const fp_image_limits_t *l = &limits;
+    if (width < 1 || height < 1)
+        return fp_error("%s:%s %s %lldx%lld is empty (expected a positive "
+                        "width and height)", file, fr, kind,
+                        (long long) width, (long long) height);
+    if (width > l->max_dim || height > l->max_dim ||
+        width > l->max_pixels / height)
+        return fp_error("%s:%s %s %lldx%lld exceeds the image budget of %lld "
+                        "pixels (%lld along an axis; --max-image-pixels raises "
+                        "it)", file, fr, kind, (long long) width,
+                        (long long) height, (long long) l->max_pixels,
+                        (long long) l->max_dim);
+    if (channels < 0 || channels > l->max_channels)
+        return fp_error("%s:%s %s has %lld channels (at most %d expected)",
+                        file, fr, kind, (long long) channels, l->max_channels);
+    if (bytes_per_sample > 0 && channels > 0 &&
+        width > l->max_line_bytes / (channels * bytes_per_sample))
+        return fp_error("%s:%s %s: a line of %lld pixels x %lld channels "
+                        "exceeds %lld bytes", file, fr, kind, (long long) width,
+                        (long long) channels, (long long) l->max_line_bytes);
+    return 0;
+}
