@@ -5,10 +5,19 @@
  * against these limits before it allocates or decodes anything, so a small
  * hostile file cannot make fogpipe allocate gigabytes.  `--max-image-pixels`
  * raises them for the rare legitimate giant. */
+/* src/ is on the include path, so this file is what `#include <limits.h>`
+ * finds (src/api.c, src/oiio_load.c, <climits>): it first brings in the
+ * system's <limits.h> (PATH_MAX, INT_MAX), outside its own guard. */
+#include_next <limits.h>
+
 #ifndef FP_LIMITS_H
 #define FP_LIMITS_H
 
 #include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
 
 typedef struct fp_image_limits_t {
     int64_t max_pixels;      /* pixels in one image (one EXR part) */
@@ -39,5 +48,9 @@ void fp_image_limits_default(fp_image_limits_t *l);
 int fp_image_limits_check(const char *file, long frame, const char *kind,
                           int64_t width, int64_t height, int64_t channels,
                           int64_t bytes_per_sample);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif
