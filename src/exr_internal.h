@@ -8,7 +8,9 @@
  *                 channel kept as bytes;
  *   exr_write.c   encoding a frame to memory and writing files atomically;
  *   exr_zip.c     the ZIP / ZIPS codec of the chunk workers (libdeflate);
- *   exr_stream.c  stream framing: one EXR file at a time from a pipe. */
+ *   exr_stream.c  stream framing: one EXR file at a time from a pipe;
+ *   exr_check.c   an image's bytes checked against the image budget and
+ *                 against its own size before anything is decoded. */
 #ifndef FP_EXR_INTERNAL_H
 #define FP_EXR_INTERNAL_H
 
@@ -19,12 +21,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* Sanity limits against corrupt headers: a frame larger than these is far
- * beyond what a compositor filter holds in memory, and refusing early
- * turns a bad header into a message instead of a huge allocation. */
-#define FP_EXR_MAX_DIM        (1 << 20)            /* pixels along one axis */
-#define FP_EXR_MAX_PIXELS     ((int64_t) 1 << 30)  /* pixels in one part */
-#define FP_EXR_MAX_PARTS      4096
+/* Sanity limits of the file's structure against corrupt headers; the
+ * image's size (pixels, axis, channels, parts) is the image budget's
+ * (src/limits.h), checked by fp_exr_check_image. */
 #define FP_EXR_MAX_ATTR_SIZE  ((int64_t) 1 << 28)  /* one attribute value */
 #define FP_EXR_MAX_ATTRS      100000               /* attributes in one header */
 #define FP_EXR_MAX_CHUNKS     ((int64_t) 1 << 26)  /* offset table entries */
@@ -170,6 +169,39 @@ exr_result_t fp_zip_decompress(exr_decode_pipeline_t *dec);
  * apart), and its inverse: s (modified) -> out. */
 void fp_zip_deconstruct(uint8_t *out, const uint8_t *raw, size_t n);
 void fp_zip_reconstruct(uint8_t *out, uint8_t *s, size_t n);
+
+/* ------------------------------------------------------------ header walk
+ * (exr_check.c) */
+
+/* What the checks need of one part's header. */
+typedef struct fp_exr_hpart_t {
+    int has_dw, has_tiles, has_cc, deep, tiled;
+    int32_t dw[4];             /* min x, min y, max x, max y */
+    int compression;           /* -1 when absent */
+    uint32_t tx, ty;
+    int level_mode, round_mode;
+    int64_t chunk_count;       /* the chunkCount attribute (has_cc) */
+    const uint8_t *chans;      /* the channels attribute's value, or NULL */
+    uint32_t chans_size;
+} fp_exr_hpart_t;
+
+/* Note one attribute (name, type, `size` bytes of value at v). */
+void fp_exr_hpart_take(fp_exr_hpart_t *sp, const char *name, const char *type,
+                       const uint8_t *v, uint32_t size);
+/* Scanlines in one chunk of a compression, or -1 if it is unknown. */
+int fp_exr_lines_per_chunk(int compression);
+/* Offset table entries the part's header implies (every level of a tiled
+ * part), -1 if it cannot say; *level0 (if not NULL): those of the highest
+ * resolution, which come first. */
+int64_t fp_exr_count_chunks(const fp_exr_hpart_t *sp, int64_t *level0);
+/* Check an EXR image in memory before anything is allocated for its
+ * pixels: every part against the image budget (src/limits.h); the file
+ * against what its headers claim (offset tables and chunk headers fit;
+ * the decoded bytes are within the codec's largest ratio times its
+ * size); each chunk of the highest resolution against the bytes of its
+ * pixels.  FP_OK, or FP_ERR with one line naming the file and frame.
+ * Bytes it cannot frame pass (FP_OK): the library reports them. */
+int fp_exr_check_image(const void *buf, size_t size, const char *where, long frame);
 
 /* ------------------------------------------------------------ small helpers */
 

@@ -10,6 +10,7 @@
 #include "exr_dwa.h"
 #include "exr_internal.h"
 #include "fp.h"
+#include "limits.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -384,13 +385,18 @@ static int setup_part(fp_frame_t *f, int p, const char *where, long frame)
     pt->compression = comp;
     pt->lineorder = lo;
 
+    /* fp_exr_check_image has checked this from the bytes; the library's
+     * reading of the header is held to the same budget. */
     int64_t w = (int64_t) pt->dw.max.x - pt->dw.min.x + 1;
     int64_t h = (int64_t) pt->dw.max.y - pt->dw.min.y + 1;
-    if (w < 1 || h < 1 || w > FP_EXR_MAX_DIM || h > FP_EXR_MAX_DIM ||
-        w * h > FP_EXR_MAX_PIXELS)
-        return fp_error("%s: frame %ld: part %d: unreasonable data window "
-                        "%lldx%lld", where, frame, p, (long long) w,
-                        (long long) h);
+    char kind[64];
+    snprintf(kind, sizeof kind, "part %d: data window", p);
+    int max_bpe = 0;
+    for (int c = 0; c < cl->num_channels; ++c)
+        if ((int) type_size(cl->entries[c].pixel_type) > max_bpe)
+            max_bpe = (int) type_size(cl->entries[c].pixel_type);
+    if (fp_image_limits_check(where, frame, kind, w, h, cl->num_channels, max_bpe) != FP_OK)
+        return FP_ERR;
 
     pt->num_chans = cl->num_channels;
     pt->chans = calloc(cl->num_channels > 0 ? (size_t) cl->num_channels : 1,
@@ -787,6 +793,10 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
         fp_error("%s: frame %ld: not an EXR file (bad magic number)", where, frame);
         goto done;
     }
+    /* The budget and the file's size against what its header claims,
+     * before either path below allocates anything for the pixels. */
+    if (fp_exr_check_image(buf, size, where, frame) != FP_OK)
+        goto done;
     /* The C library has no DWA codec (and misreads float channels of
      * B44): such an input is first rewritten with those parts uncompressed
      * by the C++ library (exr_dwa.h). */
@@ -809,10 +819,12 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
     init.user_data = &f->io;
     init.read_fn = fp_exr_mem_read;
     init.size_fn = fp_exr_mem_size;
-    init.max_image_width = FP_EXR_MAX_DIM;
-    init.max_image_height = FP_EXR_MAX_DIM;
-    init.max_tile_width = FP_EXR_MAX_DIM;
-    init.max_tile_height = FP_EXR_MAX_DIM;
+    const fp_image_limits_t *lim = fp_image_limits();
+    int max_dim = lim->max_dim < INT32_MAX ? (int) lim->max_dim : INT32_MAX;
+    init.max_image_width = max_dim;
+    init.max_image_height = max_dim;
+    init.max_tile_width = max_dim;
+    init.max_tile_height = max_dim;
     /* A missing chunk must fail loudly, not be searched for.  A strict
      * header: without it the library drops an attribute it cannot parse
      * (lineOrder 99, compression 99) and puts its default in place, so a

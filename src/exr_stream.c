@@ -5,6 +5,7 @@
  * ends, reading nothing ahead. */
 #include "exr_internal.h"
 #include "fp.h"
+#include "limits.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -103,97 +104,10 @@ static int sr_name(sreader_t *r, size_t *pos, const char **name, size_t *len)
     return FP_OK;
 }
 
-typedef struct spart_t {
-    int has_dw, has_tiles, has_cc, deep, tiled;
-    int32_t dw[4];
-    int compression;
-    uint32_t tx, ty;
-    int level_mode, round_mode;
-    int64_t chunk_count;
-} spart_t;
-
-static int round_log2(uint32_t x, int round_up)
-{
-    int y = 0;
-    if (!round_up) {
-        while (x > 1) {
-            y++;
-            x >>= 1;
-        }
-    } else {
-        int odd = 0;
-        while (x > 1) {
-            if (x & 1)
-                odd = 1;
-            y++;
-            x >>= 1;
-        }
-        y += odd;
-    }
-    return y;
-}
-
-static int64_t level_size(int64_t size, int l, int round_up)
-{
-    int64_t b = (int64_t) 1 << l;
-    int64_t s = size / b;
-    if (round_up && s * b < size)
-        s++;
-    return s < 1 ? 1 : s;
-}
-
-/* Chunks of a part without a chunkCount attribute (single-part files):
- * from the data window and the compression's lines per chunk, or the
- * tile description and its levels. */
-static int64_t count_chunks(const spart_t *sp)
-{
-    static const int lines[] = { 1, 1, 1, 16, 32, 16, 32, 32, 32, 256 };
-    int64_t w = (int64_t) sp->dw[2] - sp->dw[0] + 1;
-    int64_t h = (int64_t) sp->dw[3] - sp->dw[1] + 1;
-    if (w < 1 || h < 1 || w > INT32_MAX || h > INT32_MAX)
-        return -1;
-    if (!sp->tiled) {
-        if (sp->compression < 0 || sp->compression >= (int) FP_ARRAY_LEN(lines))
-            return -1;
-        int64_t l = lines[sp->compression];
-        return (h + l - 1) / l;
-    }
-    if (sp->tx < 1 || sp->ty < 1)
-        return -1;
-    int up = sp->round_mode == EXR_TILE_ROUND_UP;
-    int nx = 1, ny = 1;
-    if (sp->level_mode == EXR_TILE_MIPMAP_LEVELS) {
-        nx = ny = round_log2((uint32_t) (w > h ? w : h), up) + 1;
-    } else if (sp->level_mode == EXR_TILE_RIPMAP_LEVELS) {
-        nx = round_log2((uint32_t) w, up) + 1;
-        ny = round_log2((uint32_t) h, up) + 1;
-    } else if (sp->level_mode != EXR_TILE_ONE_LEVEL) {
-        return -1;
-    }
-    int64_t total = 0;
-    if (sp->level_mode == EXR_TILE_RIPMAP_LEVELS) {
-        for (int ly = 0; ly < ny; ++ly)
-            for (int lx = 0; lx < nx; ++lx) {
-                int64_t lw = level_size(w, lx, up), lh = level_size(h, ly, up);
-                total += ((lw + sp->tx - 1) / sp->tx) * ((lh + sp->ty - 1) / sp->ty);
-                if (total > FP_EXR_MAX_CHUNKS)
-                    return total;
-            }
-    } else {
-        for (int l = 0; l < nx; ++l) {
-            int64_t lw = level_size(w, l, up), lh = level_size(h, l, up);
-            total += ((lw + sp->tx - 1) / sp->tx) * ((lh + sp->ty - 1) / sp->ty);
-            if (total > FP_EXR_MAX_CHUNKS)
-                return total;
-        }
-    }
-    return total;
-}
-
 /* Read one header (attributes up to the terminating NUL) at *pos.
  * *empty is set when the header has no attributes (end of a multipart
  * header list). */
-static int sr_header(sreader_t *r, size_t *pos, spart_t *sp, int *empty)
+static int sr_header(sreader_t *r, size_t *pos, fp_exr_hpart_t *sp, int *empty)
 {
     int nattr = 0;
     *empty = 1;
@@ -226,34 +140,13 @@ static int sr_header(sreader_t *r, size_t *pos, spart_t *sp, int *empty)
         if (sr_need(r, *pos + (size_t) size) != FP_OK)
             return FP_ERR;
         const uint8_t *v = r->buf + *pos;
-        if (strcmp(name, "dataWindow") == 0 && strcmp(type, "box2i") == 0 && size == 16) {
-            for (int i = 0; i < 4; ++i)
-                sp->dw[i] = rd_i32(v + 4 * i);
-            sp->has_dw = 1;
-        } else if (strcmp(name, "compression") == 0 && size == 1) {
-            if (v[0] >= EXR_COMPRESSION_LAST_TYPE)
-                return fp_error("%s: frame %ld: corrupt EXR header (compression "
-                                "%d; expected 0-%d)", r->where, r->index, v[0],
-                                EXR_COMPRESSION_LAST_TYPE - 1);
-            sp->compression = v[0];
-        } else if (strcmp(name, "tiles") == 0 && strcmp(type, "tiledesc") == 0 &&
-                   size == 9) {
-            sp->tx = rd_u32(v);
-            sp->ty = rd_u32(v + 4);
-            sp->level_mode = v[8] & 0xf;
-            sp->round_mode = (v[8] >> 4) & 0xf;
-            sp->has_tiles = 1;
-        } else if (strcmp(name, "chunkCount") == 0 && strcmp(type, "int") == 0 &&
-                   size == 4) {
-            sp->chunk_count = rd_i32(v);
-            sp->has_cc = 1;
-        } else if (strcmp(name, "type") == 0 && strcmp(type, "string") == 0) {
-            if ((size == 12 && memcmp(v, "deepscanline", 12) == 0) ||
-                (size == 8 && memcmp(v, "deeptile", 8) == 0))
-                sp->deep = 1;
-            else if (size == 10 && memcmp(v, "tiledimage", 10) == 0)
-                sp->tiled = 1;
-        }
+        if (strcmp(name, "compression") == 0 && size == 1 &&
+            v[0] >= EXR_COMPRESSION_LAST_TYPE)
+            return fp_error("%s: frame %ld: corrupt EXR header (compression "
+                            "%d; expected 0-%d)", r->where, r->index, v[0],
+                            EXR_COMPRESSION_LAST_TYPE - 1);
+        fp_exr_hpart_take(sp, name, type, v, (uint32_t) size);
+        sp->chans = NULL; /* the buffer moves as it grows */
         *pos += (size_t) size;
     }
 }
@@ -312,7 +205,7 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
 {
     sreader_t r = { in, NULL, 0, 0, where_file ? where_file : "<stdin>", index,
                     "header" };
-    spart_t *parts = NULL;
+    fp_exr_hpart_t *parts = NULL;
     int nparts = 0, cap = 0;
     int rc = FP_ERR;
     size_t pos = 0;
@@ -359,7 +252,7 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
     }
     pos = 8;
     for (;;) {
-        spart_t sp;
+        fp_exr_hpart_t sp;
         int empty;
         if (sr_header(&r, &pos, &sp, &empty) != FP_OK)
             goto done;
@@ -384,7 +277,7 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
             goto done;
         }
         if (!sp.has_cc)
-            sp.chunk_count = count_chunks(&sp);
+            sp.chunk_count = fp_exr_count_chunks(&sp, NULL);
         if (sp.chunk_count < 1 || sp.chunk_count > FP_EXR_MAX_CHUNKS) {
             fp_error("%s: frame %ld: corrupt EXR header (part %d: %lld chunks)",
                      r.where, index, nparts, (long long) sp.chunk_count);
@@ -392,7 +285,7 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
         }
         if (nparts == cap) {
             int ncap = cap ? cap * 2 : 4;
-            spart_t *np = realloc(parts, (size_t) ncap * sizeof *np);
+            fp_exr_hpart_t *np = realloc(parts, (size_t) ncap * sizeof *np);
             if (!np) {
                 fp_error("%s: frame %ld: out of memory", r.where, index);
                 goto done;
@@ -403,9 +296,10 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
         parts[nparts++] = sp;
         if (!multipart)
             break;
-        if (nparts > FP_EXR_MAX_PARTS) {
-            fp_error("%s: frame %ld: corrupt EXR header (more than %d parts)",
-                     r.where, index, FP_EXR_MAX_PARTS);
+        if (nparts > fp_image_limits()->max_parts) {
+            fp_error("%s: frame %ld: more than %d parts (the image budget; "
+                     "--max-image-pixels raises it)", r.where, index,
+                     fp_image_limits()->max_parts);
             goto done;
         }
     }

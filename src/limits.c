@@ -3,6 +3,10 @@
 
 #include "fp.h"
 
+#include <ctype.h>
+#include <errno.h>
+#include <stdlib.h>
+
 static fp_image_limits_t limits = {
     FP_LIMIT_PIXELS, FP_LIMIT_DIM, FP_LIMIT_LINE_BYTES, FP_LIMIT_CHANNELS,
     FP_LIMIT_PARTS
@@ -20,6 +24,54 @@ void fp_image_limits_default(fp_image_limits_t *l)
 const fp_image_limits_t *fp_image_limits(void) { return &limits; }
 
 void fp_image_limits_set(const fp_image_limits_t *l) { limits = *l; }
+
+void fp_image_limits_scaled(fp_image_limits_t *l, int64_t max_pixels)
+{
+    fp_image_limits_default(l);
+    l->max_pixels = max_pixels;
+    int64_t dim = max_pixels / 256;
+    if (dim < FP_LIMIT_DIM)
+        dim = FP_LIMIT_DIM;
+    if (dim > max_pixels)
+        dim = max_pixels;
+    if (dim > INT32_MAX)
+        dim = INT32_MAX;
+    l->max_dim = dim;
+    l->max_line_bytes = dim * 1024;
+}
+
+int fp_image_limits_parse(const char *text, int64_t *max_pixels)
+{
+    char *end = NULL;
+    if (!text || !isdigit((unsigned char) text[0]))
+        return FP_ERR;
+    errno = 0;
+    unsigned long long v = strtoull(text, &end, 10);
+    int shift = 0;
+    switch (*end) {
+    case 'k': case 'K': shift = 10; end++; break;
+    case 'm': case 'M': shift = 20; end++; break;
+    case 'g': case 'G': shift = 30; end++; break;
+    default: break;
+    }
+    /* at most 2^62 pixels, so that products with a few bytes stay in range */
+    if (errno || *end || v < 1 || v > ((unsigned long long) 1 << (62 - shift)))
+        return FP_ERR;
+    *max_pixels = (int64_t) (v << shift);
+    return FP_OK;
+}
+
+int fp_image_limits_apply(const char *text)
+{
+    fp_image_limits_t l;
+    int64_t n = FP_LIMIT_PIXELS;
+    if (text && fp_image_limits_parse(text, &n) != FP_OK)
+        return fp_usage_error("--max-image-pixels: '%s' is not a pixel count (expected "
+                              "digits with an optional K, M or G: 268435456 or 256M)", text);
+    fp_image_limits_scaled(&l, n);
+    fp_image_limits_set(&l);
+    return FP_OK;
+}
 
 int fp_image_limits_check(const char *file, long frame, const char *kind,
                           int64_t width, int64_t height, int64_t channels,

@@ -41,6 +41,20 @@ const fp_image_limits_t *fp_image_limits(void);
 void fp_image_limits_set(const fp_image_limits_t *l);
 void fp_image_limits_default(fp_image_limits_t *l);
 
+/* The limits for a budget of `max_pixels` pixels: the other limits
+ * scale with it (an axis: max_pixels / 256, at least FP_LIMIT_DIM, at
+ * most max_pixels and 2^31 - 1; a line: 1024 bytes a pixel of the
+ * longest axis); channels and parts stay. */
+void fp_image_limits_scaled(fp_image_limits_t *l, int64_t max_pixels);
+
+/* Parse a pixel count: digits with an optional K, M or G (powers of
+ * 1024: "256M" is 268435456).  FP_OK, or FP_ERR without a message. */
+int fp_image_limits_parse(const char *text, int64_t *max_pixels);
+
+/* --max-image-pixels TEXT: parse it and put the scaled limits in force
+ * (NULL: the defaults).  A usage error names the option. */
+int fp_image_limits_apply(const char *text);
+
 /* Check one image's size against the limits in force: 0, or FP_ERR with a
  * one-line message "FILE: frame N: KIND WxH with C channels exceeds ...
  * (--max-image-pixels raises it)".  `frame` < 0 leaves the frame out (a

@@ -188,6 +188,7 @@ typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     char *stats;          /* per-frame timings as JSON */
     int no_fog;           /* benchmark: read and write only (the I/O floor) */
     int io_threads;       /* threads per EXR part's chunks; 0: one per core */
+    char *max_image_pixels; /* the image budget (src/limits.h); NULL: the default */
 } fp_run_params_t;
 
 typedef struct fp_cmd_params_t {

@@ -10,6 +10,7 @@
 #include "fp.h"
 #include "frameloop.h"
 #include "integrate.h"
+#include "limits.h"
 #include "scatter.h"
 #include "buffers.h"
 #include "reference.h"
@@ -86,6 +87,10 @@ const fp_option_t fp_run_options[] = {
     { "io-threads", 0, FP_OPT_INT, RUN(io_threads), 0, 0, "0", 0, 64, NULL, "N",
       "threads that decode and encode the chunks of one EXR frame at once (0: one per "
       "core; --pipeline off: one); the bytes written are the same", NULL, 0 },
+    { "max-image-pixels", 0, FP_OPT_STRING, RUN(max_image_pixels), 0, 0, NULL, 0, 0, NULL,
+      "N", "refuse images (EXR frames, fogmaps) of more than N pixels, from their header "
+      "before anything is decoded (256M, the default, is 16384x16384; K, M, G: powers of "
+      "1024); the longest axis allowed and the bytes of a line scale with it", NULL, 0 },
     { "no-fog", 0, FP_OPT_FLAG, RUN(no_fog), 0, 0, NULL, 0, 1, NULL, NULL,
       "benchmark: skip the fog, only read, decode, encode and write (the I/O floor)", NULL,
       FP_OPTF_HIDDEN },
@@ -765,7 +770,9 @@ int fp_pipeline_run(fp_params_t *p)
     run_t r;
     memset(&r, 0, sizeof r);
     r.p = p;
-    int rc = setup(&r);
+    int rc = fp_image_limits_apply(p->run.max_image_pixels);
+    if (rc == FP_OK)
+        rc = setup(&r);
     if (rc == FP_OK && p->fogmap.preview) {
         int active;
         rc = fp_fogmap_commit(p, NULL, &r.fogmap, &r.fog, &active);

@@ -1,0 +1,70 @@
+#!/bin/sh
+# Hostile EXR frames (tests/exr_mangle makes them from the sample frames):
+# the image budget checked from the header before anything is allocated,
+# the same on the C path and on the C++ codec path (DWA, float B44);
+# headers that claim more than the file can hold; chunks that hold fewer
+# bytes than their lines need; a codec failure is an error, in a stream
+# too, before any byte of the bad frame goes out.
+. "${FP_SRCDIR:-.}/tests/lib.sh"
+S=$FP_SAMPLES
+M="$FP_BUILDDIR/tests/exr_mangle"
+
+# One input per path: none and zip (the C library), dwaa, dwab and b44 with
+# a float Z (OpenEXR's C++ library).
+for c in none zip dwaa dwab b44; do
+  "$FOGPIPE" -q -i "$S/scene.0001.exr" --compression "$c" -o "$T/$c.exr"
+done
+
+# measured FILE MAXKB MAXMS: read in a child (exr_mangle measure); it
+# fails, within MAXMS ms and MAXKB KiB above a child that reads nothing.
+measured() {
+  "$M" measure "$1" > "$T/m.txt" 2> "$T/m.err" || return 1
+  cat "$T/m.txt" >&2
+  set -- $(sed 's/[a-z_]*=//g' "$T/m.txt") "$2" "$3"
+  test "$1" = 1 && test $(($2 - $3)) -lt "$5" && test "$4" -lt "$6"
+}
+
+# ---------------------------------------------------------------- budget
+for c in none zip dwaa dwab b44; do
+  "$M" window "$T/$c.exr" "$T/huge_$c.exr" 0 0 99999 99999
+  fails "$c claiming 100000x100000: refused from its header" 1 \
+    "huge_$c\.exr: frame 1: part 0: data window 100000x100000 exceeds the image budget of 268435456 pixels" \
+    "$T/huge_$c.out.exr" "$FOGPIPE" -i "$T/huge_$c.exr" -o "$T/huge_$c.out.exr"
+  sed "s/huge_$c/huge/" "$T/stderr.txt" > "$T/msg_$c.txt"
+  check "$c claiming 100000x100000: under 0.5 s and 40 MB above a no-op" \
+    measured "$T/huge_$c.exr" 40000 500
+done
+check "the same message on the C and the C++ paths" sh -c \
+  'for c in zip dwaa dwab b44; do cmp "$1/msg_none.txt" "$1/msg_$c.txt" || exit 1; done' sh "$T"
+"$M" window "$T/dwaa.exr" "$T/long.exr" 0 0 11999999 39
+fails "DWAA claiming 12000000x40: refused" 1 "long\.exr: frame 1: part 0: data window 12000000x40 exceeds" \
+  "$T/long.out.exr" "$FOGPIPE" -i "$T/long.exr" -o "$T/long.out.exr"
+check "DWAA claiming 12000000x40: cheap" measured "$T/long.exr" 40000 500
+"$M" window "$T/b44.exr" "$T/b44_2g.exr" 0 0 65535 32767
+fails "float B44 claiming 2^31 pixels: refused" 1 "data window 65536x32768 exceeds" \
+  "$T/b44_2g.out.exr" "$FOGPIPE" -i "$T/b44_2g.exr" -o "$T/b44_2g.out.exr"
+
+# --max-image-pixels: lowers and raises the budget (the sample is 320x180).
+fails "--max-image-pixels 50000 refuses 320x180" 1 "data window 320x180 exceeds the image budget of 50000" \
+  "$T/lo.exr" "$FOGPIPE" -i "$S/scene.0001.exr" --max-image-pixels 50000 -o "$T/lo.exr"
+check "--max-image-pixels 57600 takes it" \
+  "$FOGPIPE" -q -i "$S/scene.0001.exr" --max-image-pixels 57600 -o "$T/lo_ok.exr"
+fails "--max-image-pixels 12x is a usage error" 2 "max-image-pixels: '12x' is not a pixel count" \
+  "$T/bad.exr" "$FOGPIPE" -i "$S/scene.0001.exr" --max-image-pixels 12x -o "$T/bad.exr"
+fails "--max-image-pixels 16G lets 100000x100000 DWAB past the budget, not past its size" 1 \
+  "huge_dwab\.exr: frame 1: corrupt or truncated EXR \(its header claims 120000000000 bytes" \
+  "$T/raised.exr" "$FOGPIPE" -i "$T/huge_dwab.exr" --max-image-pixels 16G -o "$T/raised.exr"
+
+# ---------------------------------------------------------------- the file's size
+"$M" window "$T/none.exr" "$T/wide.exr" 0 0 999999 39
+fails "uncompressed claiming 1000000x40 in $(($(wc -c < "$T/none.exr") / 1024)) KB: refused" 1 \
+  "wide\.exr: frame 1: corrupt or truncated EXR \(its header claims 480000000 bytes of pixels, which need at least 480000320 bytes of none data" \
+  "$T/wide.out.exr" "$FOGPIPE" -i "$T/wide.exr" -o "$T/wide.out.exr"
+check "uncompressed claiming 1000000x40: cheap" measured "$T/wide.exr" 40000 500
+"$M" window "$T/zip.exr" "$T/zbig.exr" 0 0 15999 15999
+fails "ZIP claiming 16000x16000: more than deflate can pack in the file" 1 \
+  "zbig\.exr: frame 1: corrupt or truncated EXR .* of zip data" \
+  "$T/zbig.out.exr" "$FOGPIPE" -i "$T/zbig.exr" -o "$T/zbig.out.exr"
+check "ZIP claiming 16000x16000: cheap" measured "$T/zbig.exr" 40000 500
+
+finish
