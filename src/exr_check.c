@@ -4,13 +4,17 @@
  * codec path (DWA, B44, exr_dwa.h) start from the same verdict, so a
  * header that claims a giant image costs a message, not gigabytes.
  *
- * Two questions, each answered from the header and the file's size alone:
+ * Three questions, each answered from the header, the offset tables and
+ * the chunk headers alone:
  *   - the image budget (src/limits.h): pixels, axis, channels, line bytes,
  *     parts;
  *   - can the file hold what the header claims: the offset tables and the
  *     chunk headers must fit in it, and the decoded bytes must not exceed
  *     the compression's largest possible ratio times the file's size (so
- *     the memory a frame costs is bounded by its size).
+ *     the memory a frame costs is bounded by its size);
+ *   - each chunk of the part's highest resolution against the bytes its
+ *     lines need: an uncompressed chunk must hold exactly them, a
+ *     compressed one at least them over its codec's largest ratio.
  * Bytes this walk cannot frame (a name without its NUL, an attribute past
  * the end) are left to the library, whose message says what is wrong. */
 #include "exr_internal.h"
@@ -33,6 +37,11 @@ static int32_t rd_i32(const uint8_t *p)
     int32_t v;
     memcpy(&v, &u, sizeof v);
     return v;
+}
+
+static uint64_t rd_u64(const uint8_t *p)
+{
+    return (uint64_t) rd_u32(p) | (uint64_t) rd_u32(p + 4) << 32;
 }
 
 /* ------------------------------------------------------------ codec ratios */
@@ -350,6 +359,71 @@ int fp_exr_check_image(const void *buf, size_t size, const char *where, long fra
         goto done;
     }
 
+    /* Each chunk of the highest resolution against the bytes of its
+     * lines.  A chunk that is not where its table says, or is not the one
+     * the table names, is the library's to report. */
+    size_t table = pos;
+    for (int p = 0; p < nparts; ++p) {
+        const fp_exr_hpart_t *sp = &parts[p];
+        int64_t level0 = 0;
+        fp_exr_count_chunks(sp, &level0);
+        if (level0 > sp->chunk_count)
+            level0 = sp->chunk_count;
+        int64_t x0 = sp->dw[0], y0 = sp->dw[1];
+        int64_t x1 = (int64_t) sp->dw[2] + 1, y1 = (int64_t) sp->dw[3] + 1;
+        int64_t lpc = sp->tiled ? (int64_t) sp->ty : (int64_t) fp_exr_lines_per_chunk(sp->compression);
+        int64_t ntx = sp->tiled ? (x1 - x0 + (int64_t) sp->tx - 1) / (int64_t) sp->tx : 1;
+        int64_t r = max_ratio(sp->compression);
+        for (int64_t i = 0; i < level0; ++i) {
+            uint64_t off = rd_u64(b + table + (size_t) i * 8);
+            size_t lead = (multipart ? 4 : 0) + (sp->tiled ? 16 : 4);
+            if (off < table_end || off >= size || size - off < lead + 4)
+                continue;
+            const uint8_t *c = b + off;
+            if (multipart && rd_i32(c) != p)
+                continue;
+            c += multipart ? 4 : 0;
+            int64_t cx0 = x0, cx1 = x1, cy0, cy1;
+            if (sp->tiled) {
+                int64_t tx = i % ntx, ty = i / ntx;
+                if (rd_i32(c) != tx || rd_i32(c + 4) != ty || rd_i32(c + 8) != 0 ||
+                    rd_i32(c + 12) != 0)
+                    continue;
+                cx0 = x0 + tx * sp->tx;
+                cx1 = cx0 + sp->tx < x1 ? cx0 + sp->tx : x1;
+                cy0 = y0 + ty * sp->ty;
+            } else {
+                cy0 = y0 + i * lpc;
+                if (rd_i32(c) != cy0)
+                    continue;
+            }
+            cy1 = cy0 + lpc < y1 ? cy0 + lpc : y1;
+            int32_t packed = rd_i32(c + lead - (multipart ? 4 : 0));
+            if (packed < 0)
+                continue;
+            chan_sum_t cs;
+            int64_t need = 0;
+            walk_channels(sp, &cs, cx0, cx1, cy0, cy1, &need);
+            int none = sp->compression == EXR_COMPRESSION_NONE;
+            int64_t least = none ? need : (need + r - 1) / r;
+            if (none ? packed != need : packed < least) {
+                char at[96];
+                if (sp->tiled)
+                    snprintf(at, sizeof at, "tile %lld,%lld", (long long) (i % ntx),
+                             (long long) (i / ntx));
+                else
+                    snprintf(at, sizeof at, "lines %lld-%lld", (long long) cy0,
+                             (long long) cy1 - 1);
+                rc = fp_error("%s: frame %ld: part %d: chunk %lld (%s) holds %d bytes; "
+                              "its %lld bytes of pixels need %s%lld %s (corrupt EXR)",
+                              where, frame, p, (long long) i, at, (int) packed,
+                              (long long) need, none ? "" : "at least ", (long long) least,
+                              none ? "uncompressed" : fp_exr_compression_name(sp->compression));
+                goto done;
+            }
+        }
+        table += (size_t) sp->chunk_count * 8;
+    }
     goto done;
 unframed:
     rc = FP_OK;

@@ -67,4 +67,13 @@ fails "ZIP claiming 16000x16000: more than deflate can pack in the file" 1 \
   "$T/zbig.out.exr" "$FOGPIPE" -i "$T/zbig.exr" -o "$T/zbig.out.exr"
 check "ZIP claiming 16000x16000: cheap" measured "$T/zbig.exr" 40000 500
 
+# ---------------------------------------------------------------- chunks
+"$M" chunk "$T/none.exr" "$T/short.exr" 5 -8
+fails "an uncompressed chunk 8 bytes short: named" 1 \
+  "short\.exr: frame 1: part 0: chunk 5 \(lines 5-5\) holds 3832 bytes; its 3840 bytes of pixels need 3840 uncompressed" \
+  "$T/short.out.exr" "$FOGPIPE" -i "$T/short.exr" -o "$T/short.out.exr"
+"$M" chunk "$T/zip.exr" "$T/zshort.exr" 3 -1000000
+fails "a ZIP chunk with a negative size: named" 1 "zshort\.exr: frame 1" \
+  "$T/zshort.out.exr" "$FOGPIPE" -i "$T/zshort.exr" -o "$T/zshort.out.exr"
+
 finish
