@@ -397,7 +397,7 @@ void decode_image(const void *buf, size_t size, const char *w, void **out,
 
 } // namespace
 
-extern "C" int fp_dwa_decode(const void *buf, size_t size, int required,
+extern "C" int fp_dwa_decode(const void *buf, size_t size, int verdict,
                              const char *where, long frame, void **out,
                              size_t *out_size, int **part_comp, int *num_parts)
 {
@@ -406,18 +406,15 @@ extern "C" int fp_dwa_decode(const void *buf, size_t size, int required,
     *out_size = 0;
     *part_comp = nullptr;
     *num_parts = 0;
-    if (required != FP_DWA_REQUIRED) {
-        // The C path is the fallback: declined quietly (*out stays NULL).
-        try {
-            decode_image(buf, size, w, out, out_size, part_comp, num_parts);
-        } catch (...) {
-        }
-        return FP_OK;
-    }
-    return guarded(w, frame, "decode DWA-compressed EXR", [&]() -> int {
-        decode_image(buf, size, w, out, out_size, part_comp, num_parts);
-        return FP_OK;
-    });
+    // No fallback to the C decoder: for float B44 it is known to be wrong
+    // (see needs_cxx), so what the C++ library refuses is an error.
+    return guarded(w, frame,
+                   verdict == FP_DWA_REQUIRED ? "decode DWA-compressed EXR"
+                                              : "decode B44-compressed EXR",
+                   [&]() -> int {
+                       decode_image(buf, size, w, out, out_size, part_comp, num_parts);
+                       return FP_OK;
+                   });
 }
 
 extern "C" int fp_dwa_encode(const void *buf, size_t size, const int *part_comp,

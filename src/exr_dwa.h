@@ -38,17 +38,18 @@ extern "C" {
  * A walk over the header bytes; nothing is decoded. */
 int fp_dwa_probe(const void *buf, size_t size);
 /* fp_dwa_probe's answers besides 0: a DWA part (only the C++ library can
- * decode it), or B44/B44A with float channels (the C++ library should; the
- * C library stays the fallback). */
+ * decode it), or B44/B44A with float channels (only the C++ library
+ * decodes them right). */
 #define FP_DWA_PREFERRED 1
 #define FP_DWA_REQUIRED 2
 
 /* Rewrite the image `buf` with its DWA (and B44) parts uncompressed (see
  * above).  *out is malloc'd; *part_comp (malloc'd, *num_parts entries)
  * holds each part's compression in the input (exr_compression_t).  `where`
- * and `frame` label messages.  `verdict` is fp_dwa_probe's answer: with
- * FP_DWA_PREFERRED a failure of the C++ library is no error: FP_OK is
- * returned with *out NULL (nothing printed), and the C path decodes. */
+ * and `frame` label messages.  `verdict` is fp_dwa_probe's answer; it
+ * names the codec in messages.  A failure of the C++ library is an error
+ * either way (one line, FP_ERR): the C decoder is no fallback for float
+ * B44, which it misreads. */
 int fp_dwa_decode(const void *buf, size_t size, int verdict, const char *where,
                   long frame, void **out, size_t *out_size, int **part_comp,
                   int *num_parts);

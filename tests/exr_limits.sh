@@ -76,4 +76,17 @@ fails "an uncompressed chunk 8 bytes short: named" 1 \
 fails "a ZIP chunk with a negative size: named" 1 "zshort\.exr: frame 1" \
   "$T/zshort.out.exr" "$FOGPIPE" -i "$T/zshort.exr" -o "$T/zshort.out.exr"
 
+# ---------------------------------------------------------------- codec failures
+# The last chunk of float B44 longer than its data: OpenEXR's C++ library
+# refuses it, and no other decoder is tried.
+"$M" chunk "$T/b44.exr" "$T/b44_long.exr" 5 64
+fails "float B44 the C++ library refuses: an error naming it" 1 \
+  "b44_long\.exr: frame 1: cannot decode B44-compressed EXR \(.*longer than expected" \
+  "$T/b44_long.out.exr" "$FOGPIPE" -i "$T/b44_long.exr" -o "$T/b44_long.out.exr"
+"$FOGPIPE" -q -i "$S/scene.0001.exr" -o "$T/ref1.exr"
+cat "$S/scene.0001.exr" "$T/b44_long.exr" "$S/scene.0002.exr" > "$T/bad.stream"
+fails "in a stream: frame 2 named" 1 "<stdin>: frame 2: cannot decode B44" - \
+  sh -c '"$FOGPIPE" < "$1" > "$2"' sh "$T/bad.stream" "$T/bad.out.stream"
+check "in a stream: frame 1 whole, nothing of frame 2" cmp "$T/bad.out.stream" "$T/ref1.exr"
+
 finish
