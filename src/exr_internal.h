@@ -85,6 +85,7 @@ struct fp_frame_t {
     void *rgba_mem, *depth_mem;   /* the blocks free() takes */
     fp_frame_info_t info;
     int *dwa_comp;       /* each part's compression in a DWA input (exr_dwa.h), else NULL */
+    char *src;           /* the input's name (messages about its attributes) */
     int dwa_num_parts;
 };
 

@@ -783,6 +783,7 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
     }
     f->buf = (void *) buf;
     f->size = size;
+    f->src = strdup(where);
     f->io.rd = buf;
     f->io.rd_size = size;
     fp_exr_tl_msg = f->io.msg;
@@ -1029,5 +1030,6 @@ void fp_frame_free(fp_frame_t *f)
     free(f->depth_mem);
     free(f->buf);
     free(f->dwa_comp);
+    free(f->src);
     free(f);
 }

@@ -562,6 +562,15 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
             const exr_attribute_t *a = NULL;
             rv = exr_get_attribute_by_index(f->ctx, p, EXR_ATTR_LIST_FILE_ORDER,
                                             i, &a);
+            if (rv == EXR_ERR_SUCCESS && a && a->type != EXR_ATTR_FLOAT &&
+                strcmp(a->name, "dwaCompressionLevel") == 0) {
+                /* OpenEXR's own float: another type would make the C++
+                 * library refuse the header (exr_dwa.h) */
+                fp_warn("%s: frame %ld: attribute dwaCompressionLevel is of type %s "
+                        "(expected float): not copied", f->src ? f->src : "<input>",
+                        frame, a->type_name);
+                continue;
+            }
             if (rv == EXR_ERR_SUCCESS && a && !is_structural_attr(a->name) &&
                 !(p == f->main_part && opts->set_chromaticities &&
                   strcmp(a->name, "chromaticities") == 0))

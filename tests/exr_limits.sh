@@ -89,4 +89,13 @@ fails "in a stream: frame 2 named" 1 "<stdin>: frame 2: cannot decode B44" - \
   sh -c '"$FOGPIPE" < "$1" > "$2"' sh "$T/bad.stream" "$T/bad.out.stream"
 check "in a stream: frame 1 whole, nothing of frame 2" cmp "$T/bad.out.stream" "$T/ref1.exr"
 
+# ---------------------------------------------------------------- attributes
+# dwaCompressionLevel of another type (renamed to an unknown one): the
+# input is named in a warning, and the output is written with the level
+# in use.
+"$FOGPIPE" -q -i "$S/scene.0001.exr" --compression dwaa --dwa-level 60 -o "$T/lv.exr"
+"$M" attr-type "$T/lv.exr" "$T/lv_odd.exr" dwaCompressionLevel zloat
+check "dwaCompressionLevel of type zloat: a warning naming the input, the frame written" sh -c '
+  "$FOGPIPE" -i "$1" -o "$2" 2> "$3" && grep -q "lv_odd\.exr: frame 1: .*dwaCompressionLevel.*zloat" "$3" &&
+  ! grep -q "lv_odd\.out" "$3" && test -s "$2"' sh "$T/lv_odd.exr" "$T/lv_odd.out.exr" "$T/lv.err"
 finish
