@@ -46,7 +46,11 @@ class MemIStream : public Imf::IStream {
     bool isMemoryMapped() const override { return true; }
     bool read(char c[], int n) override
     {
-        std::memcpy(c, take(n), static_cast<size_t>(n));
+        const char *p = take(n);
+        if (n > 0 && !c)
+            throw Iex::InputExc("read into no buffer");
+        if (n > 0)
+            std::memcpy(c, p, static_cast<size_t>(n));
         return pos_ < size_;
     }
     char *readMemoryMapped(int n) override { return const_cast<char *>(take(n)); }
@@ -218,7 +222,9 @@ void transcode_pixels(Imf::MultiPartInputFile &in, Imf::MultiPartOutputFile &out
     op.writePixels(dw.max.y - dw.min.y + 1);
 }
 
-// A part whose header is unchanged: its chunks are copied as they are.
+// A part whose header is unchanged: its chunks are copied as they are
+// (not tiled parts of a multipart input: OpenEXR 3.1 reads their raw tiles
+// into a null buffer; decode_image decodes those).
 // Not for decreasing line order: copying reads the chunks in file order,
 // which a C-written decreasing part does not have (see transcode_pixels).
 void copy_chunks(Imf::MultiPartInputFile &in, Imf::MultiPartOutputFile &out,
@@ -350,13 +356,17 @@ void decode_image(const void *buf, size_t size, const char *w, void **out,
     int np = in.parts();
     std::vector<Imf::Header> headers;
     std::vector<int> comp(static_cast<size_t>(np));
+    std::vector<bool> plain(static_cast<size_t>(np));
     for (int p = 0; p < np; ++p) {
         Imf::Header h = in.header(p);
         if (part_is_deep(h))
             throw Iex::ArgExc("part " + std::to_string(p) + " holds deep data, which is "
                               "not supported (expected flat scanline or tiled images)");
         comp[static_cast<size_t>(p)] = static_cast<int>(h.compression());
-        if (needs_cxx(h.compression())) {
+        // Tiled parts are decoded too: OpenEXR 3.1's raw tile copy of a
+        // multipart file reads into a null buffer (copy_chunks).
+        plain[static_cast<size_t>(p)] = needs_cxx(h.compression()) || part_is_tiled(h);
+        if (plain[static_cast<size_t>(p)]) {
             h.compression() = Imf::NO_COMPRESSION;
             if (part_is_tiled(h)) {
                 // The C path reads level 0 of a tiled part and writes
@@ -375,7 +385,7 @@ void decode_image(const void *buf, size_t size, const char *w, void **out,
         Imf::MultiPartOutputFile of(os, headers.data(), np, false,
                                     Imf::globalThreadCount());
         for (int p = 0; p < np; ++p) {
-            if (needs_cxx(in.header(p).compression()))
+            if (plain[static_cast<size_t>(p)])
                 transcode_pixels(in, of, p);
             else
                 copy_chunks(in, of, p);

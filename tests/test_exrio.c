@@ -1430,8 +1430,10 @@ static uint8_t *make_stream_files(size_t sizes[NSTREAM], std_img_t *im,
     tp.th = 20;
     write_exr(p[1], &tp, 1);
     tpart_t mp[2];
+    /* the parts share their display window, as OpenEXR requires: its C++
+     * library, which decodes float B44, refuses parts that differ */
     mp[0] = std_part(im, EXR_COMPRESSION_B44A, box(0, 0, W0 - 1, H0 - 1),
-                     box(0, 0, W0 - 1, H0 - 1), 1);
+                     box(0, 0, W0 + 3, H0 + 3), 1);
     mp[0].name = "a";
     mp[1] = tp;
     mp[1].name = "b";
