@@ -59,6 +59,19 @@ const char *fp_exr_fail_text(fp_exr_io_t *io, const char *why, exr_result_t rv, 
     return out;
 }
 
+static uint8_t zero_bytes;
+
+void *fp_exr_alloc(size_t n)
+{
+    return n ? malloc(n) : &zero_bytes;
+}
+
+void fp_exr_free(void *p)
+{
+    if (p != &zero_bytes)
+        free(p);
+}
+
 int64_t fp_exr_mem_read(exr_const_context_t ctxt, void *userdata, void *buffer,
                         uint64_t sz, uint64_t offset,
                         exr_stream_error_func_ptr_t error_cb)

@@ -107,6 +107,13 @@ const char *fp_exr_lib_text(fp_exr_io_t *io, exr_result_t rv, char *out, size_t 
  * else the library's text; clears io->msg either way. */
 const char *fp_exr_fail_text(fp_exr_io_t *io, const char *why, exr_result_t rv, char *out,
                              size_t n);
+/* The allocator of the write context: malloc and free, except that a
+ * request for 0 bytes gets a static byte that free leaves alone.
+ * OpenEXR 3.1 mallocs 0 bytes for an empty opaque attribute
+ * (exr_attr_set_user with size 0, as copied from an input) and never
+ * frees them, because it frees only what has a size. */
+void *fp_exr_alloc(size_t n);
+void fp_exr_free(void *p);
 /* Read callbacks serving io->rd, and the write callback filling io->wr
  * (pwrite semantics). */
 int64_t fp_exr_mem_read(exr_const_context_t ctxt, void *userdata, void *buffer,

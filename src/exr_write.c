@@ -501,6 +501,8 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
     init.error_handler_fn = fp_exr_lib_error_handler;
     init.user_data = &io;
     init.write_fn = fp_exr_mem_write;
+    init.alloc_fn = fp_exr_alloc; /* an empty opaque attribute leaks otherwise */
+    init.free_fn = fp_exr_free;
     rv = exr_start_write(&o, where, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS) {
         o = NULL;

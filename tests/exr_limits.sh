@@ -98,4 +98,11 @@ check "in a stream: frame 1 whole, nothing of frame 2" cmp "$T/bad.out.stream" "
 check "dwaCompressionLevel of type zloat: a warning naming the input, the frame written" sh -c '
   "$FOGPIPE" -i "$1" -o "$2" 2> "$3" && grep -q "lv_odd\.exr: frame 1: .*dwaCompressionLevel.*zloat" "$3" &&
   ! grep -q "lv_odd\.out" "$3" && test -s "$2"' sh "$T/lv_odd.exr" "$T/lv_odd.out.exr" "$T/lv.err"
+# An attribute of a type OpenEXR does not know, with no bytes: copied, and
+# (under AddressSanitizer) nothing leaks.
+"$M" empty-attr "$S/scene.0001.exr" "$T/blob.exr" fpEmpty fpblob
+check "an empty attribute of an unknown type is copied" sh -c '
+  "$FOGPIPE" -q -i "$1" --no-fog -o "$2" && grep -q fpblob "$2" &&
+  "$FOGPIPE" -q -i "$1" --no-fog --compression dwab -o "$3" && grep -q fpblob "$3"' sh \
+  "$T/blob.exr" "$T/blob.out.exr" "$T/blob.dwab.exr"
 finish

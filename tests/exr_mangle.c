@@ -8,6 +8,8 @@
  *                                           appends that many bytes)
  *   exr_mangle attr-type IN OUT NAME TYPE   attribute NAME's type renamed
  *                                           (TYPE as long as the old one)
+ *   exr_mangle empty-attr IN OUT NAME TYPE  attribute NAME of type TYPE and
+ *                                           no bytes added to the header
  *   exr_mangle measure FILE                 read FILE with fp_exr_read_file
  *                                           in a child process; prints
  *                                           "rc=R rss_kb=K base_kb=B ms=M":
@@ -174,6 +176,25 @@ int main(int argc, char **argv)
         free(b);
         return 0;
     }
-    fprintf(stderr, "usage: exr_mangle window|chunk|attr-type|measure ... (see its source)\n");
+    if (argc == 6 && strcmp(argv[1], "empty-attr") == 0) {
+        size_t nl = strlen(argv[4]) + 1, tl = strlen(argv[5]) + 1, add = nl + tl + 4;
+        uint8_t *b = slurp(argv[2], &n, add);
+        find_attr(b, n, NULL, NULL, &end);
+        /* the offsets move by what is inserted before the header's end */
+        uint64_t first = (uint64_t) u32(b + end) | (uint64_t) u32(b + end + 4) << 32;
+        for (size_t t = end; t + 8 <= first && t + 8 <= n; t += 8) {
+            uint64_t off = ((uint64_t) u32(b + t) | (uint64_t) u32(b + t + 4) << 32) + add;
+            put32(b + t, (uint32_t) off);
+            put32(b + t + 4, (uint32_t) (off >> 32));
+        }
+        memmove(b + end - 1 + add, b + end - 1, n - (end - 1));
+        memcpy(b + end - 1, argv[4], nl);
+        memcpy(b + end - 1 + nl, argv[5], tl);
+        put32(b + end - 1 + nl + tl, 0);
+        spit(argv[3], b, n + add);
+        free(b);
+        return 0;
+    }
+    fprintf(stderr, "usage: exr_mangle window|chunk|attr-type|empty-attr|measure ... (see its source)\n");
     return 2;
 }
