@@ -19,7 +19,7 @@
  * the end) are left to the library, whose message says what is wrong. */
 #include "exr_internal.h"
 #include "fp.h"
-#include "limits.h"
+#include "fp_limits.h"
 
 #include <stdio.h>
 #include <stdlib.h>

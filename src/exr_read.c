@@ -10,7 +10,7 @@
 #include "exr_dwa.h"
 #include "exr_internal.h"
 #include "fp.h"
-#include "limits.h"
+#include "fp_limits.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -5,7 +5,7 @@
  * ends, reading nothing ahead. */
 #include "exr_internal.h"
 #include "fp.h"
-#include "limits.h"
+#include "fp_limits.h"
 
 #include <errno.h>
 #include <stdio.h>

@@ -10,7 +10,7 @@
 #include "fp.h"
 #include "frameloop.h"
 #include "integrate.h"
-#include "limits.h"
+#include "fp_limits.h"
 #include "scatter.h"
 #include "buffers.h"
 #include "reference.h"

@@ -5,18 +5,6 @@
  * against these limits before it allocates or decodes anything, so a small
  * hostile file cannot make fogpipe allocate gigabytes.  `--max-image-pixels`
  * raises them for the rare legitimate giant. */
-/* src/ is on the include path, so this file is what `#include <limits.h>`
- * finds (src/api.c, src/oiio_load.c, <climits>): it first brings in the
- * system's <limits.h> (PATH_MAX, INT_MAX), outside its own guard. */
-#if defined(__clang__)
-#pragma clang diagnostic push
-#pragma clang diagnostic ignored "-Winclude-next-absolute-path"
-#endif
-#include_next <limits.h>
-#if defined(__clang__)
-#pragma clang diagnostic pop
-#endif
-
 #ifndef FP_LIMITS_H
 #define FP_LIMITS_H
 
