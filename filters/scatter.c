@@ -572,6 +572,55 @@ static int grid_bounds(fp_scatter_data_t *d, const fp_integrate_data_t *fog, con
     return FP_OK;
 }
 
+static _Atomic unsigned long serial;
+
+int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *depth, long frame)
+{
+    double *lt = d->lt;
+    if (!d->active || (int)lt[FP_LT_SHADOWS] != FP_SHADOWS_SCREEN)
+        return FP_OK;
+    /* The deepest thing the depth buffer shows: no shadow reaches beyond
+     * it (fp_shafts_screen). */
+    float view[FP_VIEW_FLOATS];
+    fp_view_pack(v, view);
+    size_t np = (size_t)v->width * v->height;
+    float *z = malloc(np * sizeof *z);
+    if (!z)
+        return fp_error("frame %ld: out of memory", frame);
+    double zmax = 0;
+    for (int y = 0; y < v->height; y++)
+        for (int x = 0; x < v->width; x++) {
+            double zs = fp_scene_z(view, depth, v->width, x, y);
+            z[(size_t)y * v->width + x] = (float)zs;
+            if (zs < INFINITY)
+                zmax = fmax(zmax, zs);
+        }
+    lt[FP_LT_SS_ZMAX] = zmax;
+    /* The walk's map: the scene z per pixel and its min-max pyramid, with
+     * its own size and pixels (the walk does not take them from the view
+     * it traces). */
+    float *packed = NULL;
+    int levels = 0;
+    int bad = fp_shafts_pyramid(z, v->width, v->height, &packed, &np, &levels);
+    free(z);
+    if (bad)
+        return fp_error("frame %ld: out of memory", frame);
+    free(d->smap);
+    d->smap = packed;
+    d->smap_n = np;
+    d->smap_w = v->width;
+    d->smap_h = v->height;
+    lt[FP_LT_SM_W] = v->width;
+    lt[FP_LT_SM_H] = v->height;
+    for (int i = 0; i < 2; i++) {
+        lt[FP_LT_SS_NDC + i] = v->ndc_scale[i];
+        lt[FP_LT_SS_NDC + 2 + i] = v->ndc_offset[i];
+    }
+    lt[FP_LT_SM_LEVELS] = levels;
+    d->serial = ++serial;
+    return FP_OK;
+}
+
 int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                      const fp_view_t *v, const float *depth, long frame)
 {
@@ -587,38 +636,9 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
         if (rc)
             return rc;
     }
-    if ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN) {
-        /* The deepest thing the depth buffer shows: no shadow reaches
-         * beyond it (fp_shafts_screen). */
-        float view[FP_VIEW_FLOATS];
-        fp_view_pack(v, view);
-        size_t np = (size_t)v->width * v->height;
-        float *z = malloc(np * sizeof *z);
-        if (!z)
-            return fp_error("frame %ld: out of memory", frame);
-        double zmax = 0;
-        for (int y = 0; y < v->height; y++)
-            for (int x = 0; x < v->width; x++) {
-                double zs = fp_scene_z(view, depth, v->width, x, y);
-                z[(size_t)y * v->width + x] = (float)zs;
-                if (zs < INFINITY)
-                    zmax = fmax(zmax, zs);
-            }
-        lt[FP_LT_SS_ZMAX] = zmax;
-        /* The walk's map: the scene z per pixel and its min-max pyramid. */
-        float *packed = NULL;
-        int levels = 0;
-        int bad = fp_shafts_pyramid(z, v->width, v->height, &packed, &np, &levels);
-        free(z);
-        if (bad)
-            return fp_error("frame %ld: out of memory", frame);
-        free(d->smap);
-        d->smap = packed;
-        d->smap_n = np;
-        d->smap_w = v->width;
-        d->smap_h = v->height;
-        lt[FP_LT_SM_LEVELS] = levels;
-    }
+    int rc = fp_scatter_screen(d, v, depth, frame);
+    if (rc)
+        return rc;
     /* Without a fogmap the exact optical depth toward the sun is a closed
      * form: faster than any grid. */
     if ((int)lt[FP_LT_SELF] == FP_SELF_MAP && fog->fp[FP_F_HAS_MAP] == 0)
@@ -635,11 +655,9 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
         double side = fmin(fmax(round(0.5 * sqrt((double)v->width * v->height)), 64), 256);
         lt[FP_LT_GRID_N] = autosize ? side : floor(g[0]);
         lt[FP_LT_GRID_N + 1] = autosize ? side : floor(g[1]);
-        int rc = grid_bounds(d, fog, v, depth);
-        if (rc)
+        if ((rc = grid_bounds(d, fog, v, depth)))
             return rc;
     }
-    static _Atomic unsigned long serial;
     d->serial = ++serial;
     return FP_OK;
 }

@@ -13,7 +13,7 @@
 #include "integrate.h"
 #include "params.h"
 
-#define FP_LT_COUNT_ 236   /* kernels/light_core.h FP_LT_COUNT */
+#define FP_LT_COUNT_ 240   /* kernels/light_core.h FP_LT_COUNT */
 #define FP_SCATTER_MAX_STEPS 256
 
 /* Per run (commit) and per frame (fp_scatter_frame): the light parameters
@@ -53,6 +53,16 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d);
  * map of this frame, the self-shadow grid.  Errors name the file and frame. */
 int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                      const fp_view_t *view, const float *depth, long frame);
+
+/* --shadows screen: the depth buffer the walk toward the sun reads, from
+ * this view and depth (fp_scatter_frame makes it from its own; nothing
+ * otherwise).  The walk takes the buffer's size and pixels from it, not
+ * from the view traced, so a strided view (--fog-resolution) and the
+ * frame's own pixels (--fog-edges exact) can walk the frame's full-
+ * resolution depth buffer alike: made again from that after
+ * fp_scatter_frame on the strided view. */
+int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *view, const float *depth,
+                      long frame);
 
 void fp_scatter_release(fp_scatter_data_t *d);
 

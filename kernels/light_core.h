@@ -29,7 +29,7 @@
 #define FP_LT_STEPS 16       /* segments along the view ray (deterministic) */
 #define FP_LT_PANELS 17      /* equiangular panels per local light (4 nodes each) */
 #define FP_LT_NLIGHTS 18
-#define FP_LT_SM_W 19        /* shadow map size, texels */
+#define FP_LT_SM_W 19        /* shadow map size, texels (--shadows screen: the depth buffer's) */
 #define FP_LT_SM_H 20
 #define FP_LT_SM_NDC 21      /* 16: fog point (row vector, w = 1) -> shadow map NDC */
 #define FP_LT_SM_Z 37        /* 4: fog point -> the map camera's z: dot(p, c) + c[3] */
@@ -61,7 +61,13 @@
 #define FP_LT_GRID_W (FP_LT_CASCADE + 6 * FP_LT_MAX_CASCADES)
 #define FP_LT_SM_LEVELS (FP_LT_GRID_W + 2) /* levels of the shadow map's min-max pyramid */
 #define FP_LT_SS_ZMAX (FP_LT_GRID_W + 3)   /* --shadows screen: the depth buffer's deepest z */
-#define FP_LT_COUNT (FP_LT_GRID_W + 4)
+/* 4: --shadows screen: the depth buffer's own pixels -> NDC, scale x, y and
+ * offset x, y (pixel i's center at (i + offset) scale), with its size in
+ * FP_LT_SM_W, FP_LT_SM_H: the walk never takes them from the view traced,
+ * which may be another (--fog-resolution's strided view, walking the
+ * frame's full-resolution depth buffer). */
+#define FP_LT_SS_NDC (FP_LT_GRID_W + 4)
+#define FP_LT_COUNT (FP_LT_GRID_W + 8)
 
 /* One local light's row. */
 #define FP_LL_TYPE 0         /* FP_LIGHT_POINT, FP_LIGHT_SPOT */
@@ -220,11 +226,12 @@ FP_FN int fp_ss_clip(fp_real *pt, fp_real *ps, int n, fp_real A, fp_real B, fp_r
 
 /* The t-interval of (t, s) in [t0, t1] x [0, smax] shadowed through the
  * pixels [i0, i1) x [j0, j1) with camera z in (zlo, zhi): X = C0 + t D +
- * s L in camera space, nt, ns, nc their NDC rows (fp_ss_ndc); for a point
+ * s L in camera space, nt, ns, nc their NDC rows (fp_ss_ndc), ndc the
+ * depth buffer's pixel mapping (FP_LT_SS_NDC); for a point
  * (t0 = t1), its s-interval.  Returns 0 when none.  One pixel of scene z
  * zs: (zs, zs + THICK); a block of them: its smallest zs to its largest
  * plus THICK, which holds every pixel's interval. */
-FP_FN int fp_ss_cells(FP_CONSTANT const float *view, const fp_real *nt, const fp_real *ns,
+FP_FN int fp_ss_cells(FP_CONSTANT const fp_real *ndc, const fp_real *nt, const fp_real *ns,
                       const fp_real *nc, const fp_real *D, const fp_real *L, const fp_real *C0,
                       int i0, int i1, int j0, int j1, fp_real zlo, fp_real zhi, fp_real t0,
                       fp_real t1, fp_real smax, int point, fp_real *ia, fp_real *ib)
@@ -232,7 +239,7 @@ FP_FN int fp_ss_cells(FP_CONSTANT const float *view, const fp_real *nt, const fp
     fp_real pt[16] = { t0, t1, t1, t0 }, ps[16] = { 0, 0, smax, smax };
     int n = 4;
     for (int ax = 0; ax < 2 && n > 0; ax++) {
-        fp_real sc = view[FP_VIEW_NDC_SCALE + ax], off = view[FP_VIEW_NDC_OFFSET + ax];
+        fp_real sc = ndc[ax], off = ndc[2 + ax];
         fp_real a = ((ax ? j0 : i0) - (fp_real)0.5 + off) * sc;
         fp_real b = ((ax ? j1 : i1) - (fp_real)0.5 + off) * sc;
         fp_real lo = fmin(a, b), hi = fmax(a, b);
@@ -323,17 +330,27 @@ FP_FN void fp_pyr_next(int *ix, int *iy, int bi, int bj, int sz, int xface, fp_r
     }
 }
 
+/* A camera-space point's NDC (homogeneous, fp_ss_ndc) -> the depth
+ * buffer's pixel units (pixel i spans [i, i + 1)), by its own mapping
+ * (FP_LT_SS_NDC), not the traced view's. */
+FP_FN fp_real fp_ss_pixel(FP_CONSTANT const fp_real *lt, const fp_real *n, int ax)
+{
+    return n[ax] / n[2] / lt[FP_LT_SS_NDC + ax] - lt[FP_LT_SS_NDC + 2 + ax] + (fp_real)0.5;
+}
+
 /* The shadowed t of X = o + t d + s l, t in [t0, t1] (t1 finite; d = 0 for
  * one point, t0 = t1 = 0), from pixel (ax, ay) (the projection of the ray,
- * in pixel units: pixel i spans [i, i + 1)) toward the sun: into iv,
+ * in the depth buffer's pixel units: fp_ss_pixel) toward the sun: into iv,
  * returns their count.  A point stops at its first shadow.  zpyr: the
  * frame's scene z per pixel (+inf: sky) and its min-max pyramid, as the
- * shadow map's (fp_shafts_pyramid, filters/shafts.c): a block whose
- * pixels cannot shadow the stretch is crossed in one step. */
+ * shadow map's (fp_shafts_pyramid, filters/shafts.c), its size and pixel
+ * mapping in lt (FP_LT_SM_W, FP_LT_SM_H, FP_LT_SS_NDC): a block whose
+ * pixels cannot shadow the stretch is crossed in one step.  view: the
+ * camera's origin and projection kind (the same for any resolution). */
 FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
-                     FP_GLOBAL const float *zpyr, int width, int height, fp_real ox,
-                     fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real t0,
-                     fp_real t1, fp_real ax, fp_real ay, int point, fp_real *iv)
+                     FP_GLOBAL const float *zpyr, fp_real ox, fp_real oy, fp_real oz,
+                     fp_real dx, fp_real dy, fp_real dz, fp_real t0, fp_real t1, fp_real ax,
+                     fp_real ay, int point, fp_real *iv)
 {
     FP_CONSTANT const fp_real *m = lt + FP_LT_SS_M, *h = lt + FP_LT_SS_H;
     FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
@@ -362,17 +379,15 @@ FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *vie
     fp_real nb[3];
     for (int k = 0; k < 3; k++)
         nb[k] = nc[k] + tr * nt[k] + sr * ns[k];
-    fp_real bx = nb[0] / nb[2] / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
-    fp_real by = nb[1] / nb[2] / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] +
-                 (fp_real)0.5;
+    fp_real bx = fp_ss_pixel(lt, nb, 0), by = fp_ss_pixel(lt, nb, 1);
     /* A hierarchical 2D DDA over the pixels of [a, b] within the screen,
      * in the parameter u of a + u (b - a). */
     fp_real ex = bx - ax, ey = by - ay, u0 = 0, u1 = 1;
-    fp_clip(ax, ex, 0, (fp_real)width, &u0, &u1);
-    fp_clip(ay, ey, 0, (fp_real)height, &u0, &u1);
+    int W = (int)lt[FP_LT_SM_W], H = (int)lt[FP_LT_SM_H], NL = (int)lt[FP_LT_SM_LEVELS];
+    fp_clip(ax, ex, 0, (fp_real)W, &u0, &u1);
+    fp_clip(ay, ey, 0, (fp_real)H, &u0, &u1);
     if (!(u1 >= u0))
         return 0;
-    int W = width, H = height, NL = (int)lt[FP_LT_SM_LEVELS];
     int offs[FP_SM_MAX_LEVELS + 1];
     fp_pyr_offsets(W, H, NL, offs);
     int ix = (int)fmin(fmax(floor(ax + u0 * ex), (fp_real)0), (fp_real)(W - 1));
@@ -394,7 +409,7 @@ FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *vie
         }
         fp_real a, b;
         int hit = zlo < FP_INF &&
-                  fp_ss_cells(view, nt, ns, nc, D, L, C0, bi * sz, (bi + 1) * sz < W ? (bi + 1) * sz : W,
+                  fp_ss_cells(lt + FP_LT_SS_NDC, nt, ns, nc, D, L, C0, bi * sz, (bi + 1) * sz < W ? (bi + 1) * sz : W,
                               bj * sz, (bj + 1) * sz < H ? (bj + 1) * sz : H, zlo, zhi + thick, t0,
                               t1, dist, point, &a, &b);
         if (hit && lv > 0) {
@@ -418,7 +433,8 @@ FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *vie
 }
 
 /* A point's visibility of the sun under --shadows screen, by the same
- * rule (the brute force's and the Monte Carlo reference's). */
+ * rule (the brute force's and the Monte Carlo reference's).  width,
+ * height: the traced view's, not used (the depth buffer's own are in lt). */
 FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
                                FP_GLOBAL const float *zpyr, int width, int height, fp_real x,
                                fp_real y, fp_real z)
@@ -430,13 +446,11 @@ FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const 
     if (!(c[2] > 0))
         return 1;
     fp_ss_ndc(h, c, view[FP_VIEW_ORTHO] != 0, 1, n);
-    fp_real px = n[0] / n[2] / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
-    fp_real py = n[1] / n[2] / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] +
-                 (fp_real)0.5;
-    if (!(px >= 0 && py >= 0 && px < width && py < height))
+    fp_real px = fp_ss_pixel(lt, n, 0), py = fp_ss_pixel(lt, n, 1);
+    if (!(px >= 0 && py >= 0 && px < lt[FP_LT_SM_W] && py < lt[FP_LT_SM_H]))
         return 1;
     fp_real iv[2 * FP_SS_MAX_IV];
-    return fp_ss_walk(lt, view, zpyr, width, height, x, y, z, 0, 0, 0, 0, 0, px, py, 1, iv) > 0
+    return fp_ss_walk(lt, view, zpyr, x, y, z, 0, 0, 0, 0, 0, px, py, 1, iv) > 0
                ? (fp_real)0
                : (fp_real)1;
 }

@@ -360,12 +360,13 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
 
 /* The sun's share along a view ray under --shadows screen: the runs from
  * the walk's intervals (fp_ss_walk, kernels/light_core.h, over zpyr: the
- * depth buffer's scene z and its pyramid), C as for the map. */
+ * depth buffer's scene z and its pyramid, its size and pixels in lt, which
+ * the view traced need not share), C as for the map. */
 FP_FN fp_real fp_shafts_screen(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                                FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                                FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
                                FP_GLOBAL const float *grid, FP_CONSTANT const float *view,
-                               FP_GLOBAL const float *zpyr, int width, int height,
+                               FP_GLOBAL const float *zpyr,
                                fp_real ox, fp_real oy, fp_real oz, fp_real dx,
                                fp_real dy, fp_real dz, fp_real ta, fp_real tb, int layered,
                                fp_real h0, fp_real od_total)
@@ -382,19 +383,17 @@ FP_FN fp_real fp_shafts_screen(FP_CONSTANT const fp_real *fp, FP_CONSTANT const 
     fp_real czo = m[6] * (ox - view[0]) + m[7] * (oy - view[1]) + m[8] * (oz - view[2]);
     fp_real reach = lt[FP_LT_SS_ZMAX] + lt[FP_LT_SS_THICK] + lt[FP_LT_SS_DIST];
     fp_real tw = dzc > 0 ? fmin(tb, fmax((reach - czo) / dzc, ta)) : tb;
-    /* The ray's pixel: where a point of it projects (its center). */
+    /* The ray's pixel in the depth buffer: where a point of it projects. */
     FP_CONSTANT const fp_real *h = lt + FP_LT_SS_H;
     fp_real c[3], nn[3], q1[3] = { ox + dx - view[0], oy + dy - view[1], oz + dz - view[2] };
     for (int k = 0; k < 3; k++)
         c[k] = m[3 * k] * q1[0] + m[3 * k + 1] * q1[1] + m[3 * k + 2] * q1[2];
     fp_ss_ndc(h, c, view[FP_VIEW_ORTHO] != 0, 1, nn);
-    fp_real px = nn[0] / nn[2] / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5;
-    fp_real py = nn[1] / nn[2] / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] +
-                 (fp_real)0.5;
+    fp_real px = fp_ss_pixel(lt, nn, 0), py = fp_ss_pixel(lt, nn, 1);
     fp_real iv[2 * FP_SS_MAX_IV];
-    int n = isinf(tw) || !(c[2] > 0) ? 0
-            : fp_ss_walk(lt, view, zpyr, width, height, ox, oy, oz, dx, dy, dz, ta, tw, px, py,
-                         0, iv);
+    int n = isinf(tw) || !(c[2] > 0)
+                ? 0
+                : fp_ss_walk(lt, view, zpyr, ox, oy, oz, dx, dy, dz, ta, tw, px, py, 0, iv);
     fp_real t = ta;
     for (int k = 0; k < n; k++) {
         fp_real s0 = fmax(iv[2 * k], ta), s1 = fmin(iv[2 * k + 1], tb);
@@ -421,9 +420,8 @@ FP_FN void fp_shafts_add(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
                          fp_real od_total, fp_real w, fp_real *S)
 {
     fp_real sun = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN
-                      ? fp_shafts_screen(fp, lvi, lvf, coef, occ, lt, grid, view, smap, width,
-                                         height, ox, oy, oz, dx, dy, dz, ta, tb, layered, h0,
-                                         od_total)
+                      ? fp_shafts_screen(fp, lvi, lvf, coef, occ, lt, grid, view, smap, ox,
+                                         oy, oz, dx, dy, dz, ta, tb, layered, h0, od_total)
                       : fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx,
                                       dy, dz, ta, tb, layered, h0, od_total);
     for (int c = 0; c < 3; c++)

@@ -279,6 +279,11 @@ static int frame_fog(run_t *r, const fp_view_t *view, const float *depth, const 
     if ((r->reference || r->light.active) &&
         (rc = fp_scatter_frame(p, &r->light, &r->fog, &sub, res > 1 ? lo_depth : depth, frame)))
         goto done;
+    /* --shadows screen walks the frame's own depth buffer, at full
+     * resolution, from the strided view and from the edge pixels alike:
+     * the reduced fog's samples are the full-resolution fog's. */
+    if (res > 1 && (rc = fp_scatter_screen(&r->light, view, depth, frame)))
+        goto done;
     rc = compute_fog(r, &sub, res > 1 ? lo_depth : depth, NULL, 0, res > 1 ? lo : fog);
     if (rc == FP_OK && res > 1)
         rc = r->use_cl ? fp_upsample_cl(&r->bcl, res, p->buffers.range, w, h, dist, lo, fog)
