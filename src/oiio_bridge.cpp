@@ -32,6 +32,7 @@ extern "C" {
 namespace {
 fp_oiio_error_fn host_error;
 fp_oiio_warn_fn host_warn;
+fp_oiio_limits_fn host_limits;
 }  // namespace
 #define fp_error host_error
 #define fp_warn host_warn
@@ -82,6 +83,27 @@ struct Pixels {
     int bits = 0;  // 8 when the channels are stored in 8 bits, else 16 (or more)
 };
 
+// The image's size from its header against the host's budget, before any
+// pixel is read: the pixels, a scanline of every channel (what a reader
+// decodes at once) and a tile.
+int check_size(const ImageSpec &spec, const char *path)
+{
+    if (spec.deep)
+        return fp_error("%s: deep image, expected flat pixels", path);
+    if (spec.depth != 1)
+        return fp_error("%s: expected a 2D image, got %dx%dx%d pixels", path, spec.width,
+                        spec.height, spec.depth);
+    int64_t bytes = 1;
+    for (int c = 0; c < spec.nchannels; c++)
+        bytes = std::max<int64_t>(bytes, (int64_t)spec.channelformat(c).size());
+    if (host_limits(path, -1, "image", spec.width, spec.height, spec.nchannels, bytes))
+        return FP_ERR;
+    if (spec.tile_width > 0 &&
+        host_limits(path, -1, "tile", spec.tile_width, spec.tile_height, spec.nchannels, bytes))
+        return FP_ERR;
+    return FP_OK;
+}
+
 // Opens `path` for reading values as data.  Prints the message and returns
 // null on failure.
 std::unique_ptr<ImageInput> open_data(const char *path)
@@ -102,9 +124,13 @@ std::unique_ptr<ImageInput> open_data(const char *path)
     // (PNG in linearized sRGB), which would change the colour channels.
     config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = ImageInput::open(path, &config);
-    if (!in)
+    if (!in) {
         fp_error("%s: not an image OpenImageIO can read (%s)", path,
                  one_line(OIIO::geterror()).c_str());
+        return nullptr;
+    }
+    if (check_size(in->spec(), path) != FP_OK)
+        return nullptr;
     return in;
 }
 
@@ -436,9 +462,10 @@ const fp_oiio_module_t module = { FP_OIIO_ABI, PACKAGE_VERSION, read_channel, wr
 }  // namespace
 
 extern "C" __attribute__((visibility("default"))) const fp_oiio_module_t *
-fp_oiio_module(fp_oiio_error_fn error, fp_oiio_warn_fn warn)
+fp_oiio_module(fp_oiio_error_fn error, fp_oiio_warn_fn warn, fp_oiio_limits_fn limits)
 {
     host_error = error;
     host_warn = warn;
+    host_limits = limits;
     return &module;
 }

@@ -10,6 +10,8 @@
 #ifndef FP_OIIO_BRIDGE_H
 #define FP_OIIO_BRIDGE_H
 
+#include <stdint.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -23,6 +25,9 @@ extern "C" {
  *
  * `channel` is a channel name ("G", "density", "depth.Z"); NULL or "" means
  * the first channel.  Only the first subimage is read.
+ *
+ * The image's size is checked from its header against the image budget
+ * (src/fp_limits.h) before any pixel is read.
  *
  * The pixels returned are the whole data window, which may be smaller or
  * larger than the display window (EXR) and whose origin is dropped: a
@@ -77,9 +82,15 @@ int fp_oiio_tile_sheet(const char *const *paths, int count, int columns, int max
  * never touch anything but EXR.  The module prints through the host's
  * messages (fp_error and fp_warn, passed in: per-thread sinks, the
  * library's emitter) and returns its entry points. */
-#define FP_OIIO_ABI 1
+#define FP_OIIO_ABI 2
 typedef int (*fp_oiio_error_fn)(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 typedef void (*fp_oiio_warn_fn)(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* The host's fp_image_limits_check (src/fp_limits.h): the module checks
+ * every image's size from its header with it before reading any pixel, so
+ * that the budget (--max-image-pixels) is the library's, one for all. */
+typedef int (*fp_oiio_limits_fn)(const char *file, long frame, const char *kind,
+                                 int64_t width, int64_t height, int64_t channels,
+                                 int64_t bytes_per_sample);
 typedef struct fp_oiio_module_t {
     int abi;             /* FP_OIIO_ABI of the module */
     const char *version; /* PACKAGE_VERSION it was built with */
@@ -90,10 +101,11 @@ typedef struct fp_oiio_module_t {
     int (*tile_sheet)(const char *const *paths, int count, int columns, int max_size,
                       const char *out_path);
 } fp_oiio_module_t;
-/* The module's one exported symbol (FP_OIIO_ENTRY): called once, with the
- * host's message functions. */
+/* The module's entry point (FP_OIIO_ENTRY): called once, with the host's
+ * message functions and its image budget. */
 #define FP_OIIO_ENTRY "fp_oiio_module"
-typedef const fp_oiio_module_t *(*fp_oiio_entry_fn)(fp_oiio_error_fn error, fp_oiio_warn_fn warn);
+typedef const fp_oiio_module_t *(*fp_oiio_entry_fn)(fp_oiio_error_fn error, fp_oiio_warn_fn warn,
+                                                    fp_oiio_limits_fn limits);
 
 #ifdef __cplusplus
 }

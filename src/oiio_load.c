@@ -23,6 +23,7 @@
 #include <unistd.h>
 
 #include "fp.h"
+#include "fp_limits.h"
 #include "oiio_bridge.h"
 
 #define MODULE_NAME "fogpipe_oiio.so"
@@ -62,7 +63,7 @@ static int try_dir(const char *dir)
     fp_oiio_entry_fn entry;
     /* POSIX's way from a data pointer to a function pointer (dlsym(3)). */
     *(void **)&entry = dlsym(h, FP_OIIO_ENTRY);
-    const fp_oiio_module_t *m = entry ? entry(fp_error, fp_warn) : NULL;
+    const fp_oiio_module_t *m = entry ? entry(fp_error, fp_warn, fp_image_limits_check) : NULL;
     if (!m || m->abi != FP_OIIO_ABI || strcmp(m->version, PACKAGE_VERSION) != 0) {
         char line[PATH_MAX + 200];
         snprintf(line, sizeof line, "%s is not this fogpipe's (%s, expected %s)", path,
