@@ -10,6 +10,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <new>
 #include <string>
 #include <sys/stat.h>
@@ -83,6 +85,78 @@ struct Pixels {
     int bits = 0;  // 8 when the channels are stored in 8 bits, else 16 (or more)
 };
 
+uint32_t be32(const unsigned char *p)
+{
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+// PNG's CRC-32 (ISO 3309, the PNG specification's annex D).
+uint32_t png_crc(uint32_t crc, const unsigned char *p, size_t n)
+{
+    static uint32_t table[256];
+    static bool made = [] {
+        for (uint32_t i = 0; i < 256; i++) {
+            uint32_t c = i;
+            for (int k = 0; k < 8; k++)
+                c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            table[i] = c;
+        }
+        return true;
+    }();
+    (void)made;
+    for (size_t i = 0; i < n; i++)
+        crc = table[(crc ^ p[i]) & 0xff] ^ (crc >> 8);
+    return crc;
+}
+
+// A PNG's chunks, each there whole with its CRC, up to IEND, before libpng
+// reads it: libpng prints its errors on stderr besides returning them (a
+// second line), and a truncated or damaged file is ours to name.  Files
+// that are not PNGs pass.
+int check_png(const char *path)
+{
+    static const unsigned char sig[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n' };
+    std::unique_ptr<FILE, int (*)(FILE *)> f(fopen(path, "rb"), fclose);
+    unsigned char head[8];
+    if (!f || fread(head, 1, 8, f.get()) != 8 || memcmp(head, sig, 8) != 0)
+        return FP_OK;
+    std::vector<unsigned char> buf(1 << 16);
+    for (long long at = 8, n = 0;; n++) {
+        char type[5] = "";
+        if (fread(head, 1, 8, f.get()) != 8)
+            return fp_error("%s: truncated PNG (the file ends at byte %lld, after %lld chunks "
+                            "and no IEND)", path, at, n);
+        uint32_t len = be32(head);
+        memcpy(type, head + 4, 4);
+        for (int i = 0; i < 4; i++)
+            if (!isalpha((unsigned char)type[i]))
+                type[i] = '?';
+        if (len > 0x7fffffffu)
+            return fp_error("%s: corrupt PNG (chunk %lld \"%s\" at byte %lld claims %lu bytes)",
+                            path, n + 1, type, at, (unsigned long)len);
+        uint32_t crc = png_crc(0xffffffffu, head + 4, 4);
+        for (uint32_t left = len; left > 0;) {
+            size_t want = std::min<size_t>(left, buf.size());
+            size_t got = fread(buf.data(), 1, want, f.get());
+            crc = png_crc(crc, buf.data(), got);
+            if (got != want)
+                return fp_error("%s: truncated PNG (chunk %lld \"%s\" at byte %lld has %lu "
+                                "bytes; the file ends %lu bytes into it)", path, n + 1, type,
+                                at, (unsigned long)len, (unsigned long)(len - left + got));
+            left -= (uint32_t)got;
+        }
+        if (fread(head, 1, 4, f.get()) != 4)
+            return fp_error("%s: truncated PNG (the file ends in chunk %lld \"%s\"'s CRC)",
+                            path, n + 1, type);
+        if (be32(head) != (crc ^ 0xffffffffu))
+            return fp_error("%s: corrupt PNG (chunk %lld \"%s\" at byte %lld fails its CRC)",
+                            path, n + 1, type, at);
+        if (memcmp(type, "IEND", 4) == 0)
+            return FP_OK;
+        at += 12 + (long long)len;
+    }
+}
+
 // The image's size from its header against the host's budget, before any
 // pixel is read: the pixels, a scanline of every channel (what a reader
 // decodes at once) and a tile.
@@ -117,6 +191,8 @@ std::unique_ptr<ImageInput> open_data(const char *path)
         fp_error("%s: is a directory, expected an image file", path);
         return nullptr;
     }
+    if (check_png(path) != FP_OK)
+        return nullptr;
     ImageSpec config;
     // CMYK (TIFF, PSD) and YCbCr (DPX) as stored, not converted to RGB.
     config.attribute("oiio:RawColor", 1);
@@ -175,8 +251,14 @@ int read_channels(ImageInput &in, const char *path, int chbegin, int chend, Pixe
         ok = read_unorm<uint16_t>(in, chbegin, chend, TypeDesc::UINT16, 65535.0f, px.v);
     else
         ok = in.read_image(0, 0, chbegin, chend, TypeDesc::FLOAT, px.v.data());
-    if (!ok)
-        return fp_error("%s: cannot read the pixels (%s)", path,
+    // A reader may return pixels and an error (a truncated TIFF strip, a
+    // JPEG that ends early): the pixels are then garbage.
+    std::string err = in.geterror();
+    if (!ok || !err.empty())
+        return fp_error("%s: cannot read the pixels: truncated or corrupt image (%s)", path,
+                        one_line(err).c_str());
+    if (!in.close() || in.has_error())
+        return fp_error("%s: cannot read the image (%s)", path,
                         one_line(in.geterror()).c_str());
     px.width = spec.width;
     px.height = spec.height;
@@ -315,7 +397,8 @@ int write_pixels(const char *path, const float *pixels, int width, int height, i
         auto q = quantize<uint8_t>(pixels, width, height, nch, 255.0, dither);
         ok = out->write_image(type, q.data());
     }
-    ok = ok && out->close();
+    ok = ok && !out->has_error();
+    ok = out->close() && ok && !out->has_error();
     if (!ok)
         return fp_error("%s: cannot write (%s)", path, one_line(out->geterror()).c_str());
     out.reset();
@@ -438,11 +521,15 @@ int tile_sheet(const char *const *paths, int count, int columns, int max_size,
                 ImageBuf src(spec, cell.v.data()), dst;
                 if (!ImageBufAlgo::resize(dst, src, "", 0.0f, ROI(0, tw, 0, th)))
                     return fp_error("%s: cannot scale %s to %dx%d for the contact sheet (%s)",
-                                    out_path, paths[i], tw, th, dst.geterror().c_str());
+                                    out_path, paths[i], tw, th,
+                                    one_line(dst.geterror()).c_str());
                 // The filter rings a little past the display range.
-                ImageBufAlgo::clamp(dst, dst, 0.0f, 1.0f);
                 cell.v.assign((size_t)tw * th * cell.nchannels, 0.0f);
-                dst.get_pixels(ROI(0, tw, 0, th), TypeDesc::FLOAT, cell.v.data());
+                if (!ImageBufAlgo::clamp(dst, dst, 0.0f, 1.0f) ||
+                    !dst.get_pixels(ROI(0, tw, 0, th), TypeDesc::FLOAT, cell.v.data()))
+                    return fp_error("%s: cannot scale %s to %dx%d for the contact sheet (%s)",
+                                    out_path, paths[i], tw, th,
+                                    one_line(dst.geterror()).c_str());
             }
             size_t row_len = (size_t)tw * cell.nchannels;
             size_t sheet_row = row_len * columns;

@@ -27,7 +27,9 @@ extern "C" {
  * the first channel.  Only the first subimage is read.
  *
  * The image's size is checked from its header against the image budget
- * (src/fp_limits.h) before any pixel is read.
+ * (src/fp_limits.h) before any pixel is read; the read is an error when
+ * OpenImageIO reports one, even with pixels (a truncated TIFF or JPEG), and
+ * a PNG's chunks are checked whole (CRCs, IEND) before libpng reads it.
  *
  * The pixels returned are the whole data window, which may be smaller or
  * larger than the display window (EXR) and whose origin is dropped: a

@@ -252,6 +252,76 @@ static void test_budget_is_the_hosts(void **state)
     free(got);
 }
 
+/* The first `n` bytes of `from` as `to`. */
+static void cut_copy(const char *from, const char *to, long n)
+{
+    FILE *f = fopen(from, "rb");
+    assert_non_null(f);
+    static unsigned char buf[1 << 20];
+    size_t got = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    assert_true(n > 0 && (size_t)n < got);
+    write_bytes(to, buf, (size_t)n);
+}
+
+static long file_size(const char *path)
+{
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    return (long)st.st_size;
+}
+
+/* Truncated and damaged images, each a one-line error naming the file
+ * (before, a TIFF cut in its strip and a JPEG cut in its scan returned
+ * pixels, garbage, with an error nobody read; a cut PNG printed libpng's own
+ * line besides).  The whole files read. */
+static void test_truncated_images_refused(void **state)
+{
+    (void)state;
+    static unsigned char buf[1 << 14];
+    write_bytes(tpath("whole.tif"), buf, gray_tiff(buf, 64, 64, 64 * 64));
+    write_bytes(tpath("cut.tif"), buf, gray_tiff(buf, 64, 64, 64 * 32));
+    float img[64 * 64];
+    uint32_t x = 12345;
+    for (int i = 0; i < 64 * 64; i++) {
+        x = x * 1103515245u + 12345u;
+        img[i] = (float)(x >> 8) / 16777216.0f;
+    }
+    assert_int_equal(fp_oiio_write_preview(tpath("whole.jpg"), img, 64, 64, 1, 8, 0), FP_OK);
+    assert_int_equal(fp_oiio_write_preview(tpath("whole.png"), img, 64, 64, 1, 8, 0), FP_OK);
+    cut_copy(tpath("whole.jpg"), tpath("cut.jpg"), file_size(tpath("whole.jpg")) / 2);
+    cut_copy(tpath("whole.png"), tpath("cut.png"), file_size(tpath("whole.png")) / 2);
+    cut_copy(tpath("whole.png"), tpath("cut-iend.png"), file_size(tpath("whole.png")) - 6);
+    /* One bit flipped inside the pixel data: the CRC says so. */
+    FILE *f = fopen(tpath("whole.png"), "rb");
+    assert_non_null(f);
+    size_t n = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    buf[n / 2] ^= 0x10;
+    write_bytes(tpath("flipped.png"), buf, n);
+
+    float *got = NULL;
+    int w, h;
+    const char *whole[] = { "whole.tif", "whole.jpg", "whole.png" };
+    for (size_t i = 0; i < FP_ARRAY_LEN(whole); i++) {
+        assert_int_equal(fp_oiio_read_channel(tpath(whole[i]), NULL, &got, &w, &h), FP_OK);
+        assert_int_equal(w, 64);
+        free(got);
+    }
+    const char *bad[] = { "cut.tif", "cut.jpg", "cut.png", "cut-iend.png", "flipped.png" };
+    const char *why[] = { "truncated or corrupt", "truncated or corrupt", "truncated PNG",
+                          "truncated PNG", "fails its CRC" };
+    for (size_t i = 0; i < FP_ARRAY_LEN(bad); i++) {
+        got = (float *)&got;
+        int rc = 0;
+        SAYS(rc = fp_oiio_read_channel(tpath(bad[i]), NULL, &got, &w, &h));
+        assert_int_equal(rc, FP_ERR);
+        assert_one_line_naming(tpath(bad[i]));
+        assert_said(why[i]);
+        assert_true(got == (float *)&got);
+    }
+}
+
 static int setup_group(void **state)
 {
     (void)state;
@@ -277,6 +347,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_giant_headers_refused),
         cmocka_unit_test(test_budget_is_the_hosts),
+        cmocka_unit_test(test_truncated_images_refused),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }
