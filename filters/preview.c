@@ -58,6 +58,70 @@ static int check_name(const char *what, const char *name)
     return FP_OK;
 }
 
+/* `name` made absolute through its directory when that exists ("p.png",
+ * "./p.png" and "/abs/p.png" are one file), else as given. */
+static void canonical(const char *name, char *out, size_t n)
+{
+    const char *slash = strrchr(name, '/');
+    char dir[4096], real[4096];
+    size_t len = slash ? (size_t)(slash - name) : 0;
+    snprintf(out, n, "%s", name);
+    if (len >= sizeof dir)
+        return;
+    memcpy(dir, name, len);
+    dir[len] = 0;
+    if (realpath(slash ? (len ? dir : "/") : ".", real))
+        snprintf(out, n, "%s/%s", strcmp(real, "/") ? real : "", slash ? slash + 1 : name);
+}
+
+/* A pattern's text before and after its frame number (# or @ runs, %0Nd). */
+static int split_pattern(const char *pat, size_t *pre, const char **post)
+{
+    for (size_t i = 0; pat[i]; i++) {
+        if (pat[i] == '#' || pat[i] == '@') {
+            size_t j = i;
+            while (pat[j] == pat[i])
+                j++;
+            *pre = i;
+            *post = pat + j;
+            return 1;
+        }
+        if (pat[i] == '%' && pat[i + 1] != '%') {
+            size_t j = i + 1;
+            while (pat[j] >= '0' && pat[j] <= '9')
+                j++;
+            *pre = i;
+            *post = pat + j + (pat[j] == 'd');
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Whether two output names (patterns or files) can name one file. */
+static int may_collide(const char *a, const char *b)
+{
+    char ca[4200], cb[4200];
+    canonical(a, ca, sizeof ca);
+    canonical(b, cb, sizeof cb);
+    size_t pa, pb;
+    const char *sa, *sb;
+    int ha = split_pattern(ca, &pa, &sa), hb = split_pattern(cb, &pb, &sb);
+    if (!ha && !hb)
+        return strcmp(ca, cb) == 0;
+    if (ha && hb)
+        return pa == pb && strncmp(ca, cb, pa) == 0 && strcmp(sa, sb) == 0;
+    /* A pattern and a file: the file is one of its frames. */
+    const char *pat = ha ? ca : cb, *file = ha ? cb : ca, *post = ha ? sa : sb;
+    size_t pre = ha ? pa : pb, fl = strlen(file), ql = strlen(post);
+    if (fl < pre + ql + 1 || strncmp(pat, file, pre) != 0 || strcmp(file + fl - ql, post) != 0)
+        return 0;
+    for (size_t i = pre; i < fl - ql; i++)
+        if ((file[i] < '0' || file[i] > '9') && !(i == pre && file[i] == '-'))
+            return 0;
+    return 1;
+}
+
 int fp_preview_commit(const fp_params_t *p, fp_preview_t *s)
 {
     int rc;
@@ -84,6 +148,17 @@ int fp_preview_commit(const fp_params_t *p, fp_preview_t *s)
         return rc;
     if (s->sheet && (rc = check_name("--contact-sheet", s->sheet)))
         return rc;
+    /* Two outputs in one file: the later would silently replace the other. */
+    const char *out = p->io.output;
+    if (s->sheet && may_collide(s->sheet, s->pattern))
+        return fp_usage_error("--contact-sheet %s: the same file as --preview %s (each output "
+                              "needs its own file)", s->sheet, s->pattern);
+    if (out && strcmp(out, "-") != 0 && may_collide(out, s->pattern))
+        return fp_usage_error("--preview %s: the same file as the output %s (each output needs "
+                              "its own file)", s->pattern, out);
+    if (out && s->sheet && strcmp(out, "-") != 0 && may_collide(out, s->sheet))
+        return fp_usage_error("--contact-sheet %s: the same file as the output %s (each output "
+                              "needs its own file)", s->sheet, out);
     if (pthread_mutex_init(&s->lock, NULL) != 0)
         return fp_error("cannot make a mutex");
     s->lock_ok = 1;

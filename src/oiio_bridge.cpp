@@ -7,6 +7,7 @@
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -21,6 +22,7 @@
 #include <memory>
 #include <new>
 #include <string>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <vector>
@@ -296,6 +298,73 @@ struct TmpFile {
     }
 };
 
+// An image file in memory that a writer may seek in, write over and read
+// back (libtiff does; OpenImageIO's IOVecOutput has no read, and the TIFFs
+// written through it lack their directory).
+class MemFile : public OIIO::Filesystem::IOProxy {
+public:
+    explicit MemFile(std::vector<unsigned char> &buf) : IOProxy("", Write), m_buf(buf) {}
+    const char *proxytype() const override { return "fogpipe-memory"; }
+    size_t read(void *buf, size_t size) override
+    {
+        size_t n = pread(buf, size, m_pos);
+        m_pos += (int64_t)n;
+        return n;
+    }
+    size_t write(const void *buf, size_t size) override
+    {
+        size_t n = pwrite(buf, size, m_pos);
+        m_pos += (int64_t)n;
+        return n;
+    }
+    size_t pread(void *buf, size_t size, int64_t offset) override
+    {
+        if (offset < 0 || (uint64_t)offset >= m_buf.size())
+            return 0;
+        size_t n = std::min(size, m_buf.size() - (size_t)offset);
+        memcpy(buf, m_buf.data() + offset, n);
+        return n;
+    }
+    size_t pwrite(const void *buf, size_t size, int64_t offset) override
+    {
+        if (offset < 0)
+            return 0;
+        if ((size_t)offset + size > m_buf.size())
+            m_buf.resize((size_t)offset + size);
+        memcpy(m_buf.data() + offset, buf, size);
+        return size;
+    }
+    size_t size() const override { return m_buf.size(); }
+
+private:
+    std::vector<unsigned char> &m_buf;
+};
+
+// Writes `bytes` as the file `name`, every write and the close checked;
+// -1 with errno set on failure.
+int write_whole(const char *name, const std::vector<unsigned char> &bytes)
+{
+    int fd = open(name, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0)
+        return -1;
+    const unsigned char *p = bytes.data();
+    size_t left = bytes.size();
+    while (left > 0) {
+        ssize_t w = write(fd, p, left);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            int e = w < 0 ? errno : ENOSPC;
+            close(fd);
+            errno = e;
+            return -1;
+        }
+        p += w;
+        left -= (size_t)w;
+    }
+    return close(fd);
+}
+
 // Interleaved gradient noise (J. Jimenez, "Next Generation Post Processing
 // in Call of Duty: Advanced Warfare", SIGGRAPH 2014 course): a threshold in
 // [0,1) whose neighbours differ a lot (blue-noise-like), from the pixel
@@ -353,14 +422,25 @@ int write_pixels(const char *path, const float *pixels, int width, int height, i
         return fp_error("%s: no extension to choose the image format by (expected .png, "
                         ".tif or .jpg)", path);
     std::string ext = base.substr(dot);
-    // OpenImageIO picks the format by the extension: keep it last.
     TmpFile tmp;
     tmp.name = dir + "." + base.substr(0, dot) + ".tmp." + std::to_string((long)getpid()) + ext;
 
-    auto out = ImageOutput::create(tmp.name);
+    // The writer encodes into memory and the file is written here, every
+    // write checked: OpenImageIO's writers do not all report a failed write
+    // (a PNG on a full disk was "written", cut), and libjpeg's exits the
+    // process.  TIFF is the exception: libtiff checks its own writes, and
+    // rewrites its directory in place (an EXIF one for the color space),
+    // which OpenImageIO 2.4's TIFF writer cannot do through a proxy.
+    std::vector<unsigned char> bytes;
+    MemFile vec(bytes);
+    auto out = ImageOutput::create(path);
     if (!out)
         return fp_error("%s: no image format for the extension \"%s\" (expected .png, .tif, "
                         ".jpg or another OpenImageIO writes)", path, ext.c_str());
+    bool in_memory = strcmp(out->format_name(), "tiff") != 0;
+    if (in_memory && !out->supports("ioproxy"))
+        return fp_error("%s: the %s format cannot be written here (expected .png, .tif or "
+                        ".jpg)", path, out->format_name());
     if (nch == 4 && !out->supports("alpha"))
         return fp_error("%s: the %s format has no alpha channel; expected 1 or 3 channels",
                         path, out->format_name());
@@ -374,7 +454,10 @@ int write_pixels(const char *path, const float *pixels, int width, int height, i
     // The TIFF writer stamps the current time unless DateTime is set; an
     // empty one writes no tag, so the same pixels give the same bytes.
     spec.attribute("DateTime", "");
-    if (!out->open(tmp.name, spec))
+    // Set just before open: a JPEG writer destroyed with a proxy and never
+    // opened crashes (OpenImageIO 2.4).
+    if (in_memory ? !out->set_ioproxy(&vec) || !out->open(path, spec)
+                  : !out->open(tmp.name, spec))
         return fp_error("%s: cannot write (%s)", path, one_line(out->geterror()).c_str());
     // Writers adapt what they cannot store (JPEG: 8 bits, no alpha) silently.
     const ImageSpec &got = out->spec();
@@ -402,6 +485,8 @@ int write_pixels(const char *path, const float *pixels, int width, int height, i
     if (!ok)
         return fp_error("%s: cannot write (%s)", path, one_line(out->geterror()).c_str());
     out.reset();
+    if (in_memory && write_whole(tmp.name.c_str(), bytes) != 0)
+        return fp_error("%s: cannot write (%s)", path, strerror(errno));
     if (rename(tmp.name.c_str(), path) != 0)
         return fp_error("%s: cannot rename %s into place (%s)", path, tmp.name.c_str(),
                         strerror(errno));

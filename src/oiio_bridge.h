@@ -57,7 +57,9 @@ int fp_oiio_read_channel(const char *path, const char *channel, float **data, in
  * the nearest code.
  *
  * A format that cannot store the request is an error: 16 bits in JPEG, 4
- * channels in JPEG.  The write is atomic: the file is written under a
+ * channels in JPEG.  The write is atomic: the image is encoded in memory
+ * (TIFF excepted: libtiff checks its writes), written with every write
+ * checked, under a
  * temporary name in the same directory (".<name>.tmp.<pid>.<ext>") and
  * renamed over `path`; on failure nothing is left behind. */
 int fp_oiio_write_preview(const char *path, const float *pixels, int width, int height,

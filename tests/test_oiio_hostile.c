@@ -11,7 +11,9 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <dirent.h>
 #include <errno.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -322,6 +324,80 @@ static void test_truncated_images_refused(void **state)
     }
 }
 
+/* Entries of the test directory whose name contains ".tmp.". */
+static int temporaries(void)
+{
+    int n = 0;
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    while (d && (e = readdir(d)))
+        n += strstr(e->d_name, ".tmp.") != NULL;
+    if (d)
+        closedir(d);
+    return n;
+}
+
+/* A full disk, as a file size limit (RLIMIT_FSIZE, SIGXFSZ ignored: a
+ * write past it fails with EFBIG as one past the end of a disk fails with
+ * ENOSPC): previews and contact sheets of every format fail with one line
+ * naming the file, leave nothing under the final name nor a temporary, and
+ * an older file of that name stays whole (before, the preview reported
+ * success and a cut PNG was renamed into place). */
+static void test_full_disk(void **state)
+{
+    (void)state;
+    enum { W = 256, H = 256 };
+    static float noise[W * H * 3];
+    uint32_t x = 777;
+    for (int i = 0; i < W * H * 3; i++) {
+        x = x * 1103515245u + 12345u;
+        noise[i] = (float)(x >> 8) / 16777216.0f;
+    }
+    float small[4] = { 0.25f, 0.5f, 0.75f, 1.0f };
+    assert_int_equal(fp_oiio_write_preview(tpath("old.png"), small, 2, 2, 1, 8, 0), FP_OK);
+    assert_int_equal(fp_oiio_write_preview(tpath("cell1.png"), noise, W, H, 3, 8, 1), FP_OK);
+    assert_int_equal(fp_oiio_write_preview(tpath("cell2.png"), noise, W, H, 3, 8, 1), FP_OK);
+    assert_true(file_size(tpath("cell1.png")) > 64 * 1024);
+
+    struct rlimit old, lim;
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &old), 0);
+    void (*oldsig)(int) = signal(SIGXFSZ, SIG_IGN);
+    lim = old;
+    lim.rlim_cur = 16 * 1024;
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &lim), 0);
+    const char *names[] = { "full.png", "full.tif", "full.jpg", "old.png" };
+    int rcs[4], sheet_rc = 0;
+    static char msgs[5][sizeof said];
+    for (int i = 0; i < 4; i++) {
+        SAYS(rcs[i] = fp_oiio_write_preview(tpath(names[i]), noise, W, H, 3, 8, 1));
+        memcpy(msgs[i], said, sizeof said);
+    }
+    const char *cells[] = { tpath("cell1.png"), tpath("cell2.png") };
+    SAYS(sheet_rc = fp_oiio_tile_sheet(cells, 2, 2, 4096, tpath("sheet.png")));
+    memcpy(msgs[4], said, sizeof said);
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &old), 0);
+    signal(SIGXFSZ, oldsig);
+
+    for (int i = 0; i < 5; i++) {
+        const char *name = i < 4 ? names[i] : "sheet.png";
+        if ((i < 4 ? rcs[i] : sheet_rc) != FP_ERR)
+            fail_msg("%s: written past the file size limit", name);
+        memcpy(said, msgs[i], sizeof said);
+        assert_one_line_naming(tpath(name));
+        /* strerror(EFBIG), or libtiff's own words for it. */
+        if (!strstr(said, "File too large") && !strstr(said, "Write error"))
+            fail_msg("%s: expected the write error, got \"%s\"", name, said);
+        if (i != 3 && access(tpath(name), F_OK) == 0)
+            fail_msg("%s: a cut file was left under the final name", name);
+    }
+    assert_int_equal(temporaries(), 0);
+    float *got;
+    int w, h;
+    assert_int_equal(fp_oiio_read_channel(tpath("old.png"), NULL, &got, &w, &h), FP_OK);
+    assert_int_equal(w, 2);
+    free(got);
+}
+
 static int setup_group(void **state)
 {
     (void)state;
@@ -348,6 +424,7 @@ int main(void)
         cmocka_unit_test(test_giant_headers_refused),
         cmocka_unit_test(test_budget_is_the_hosts),
         cmocka_unit_test(test_truncated_images_refused),
+        cmocka_unit_test(test_full_disk),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }

@@ -1,0 +1,57 @@
+#!/bin/sh
+# Images through OpenImageIO from the command line: broken fogmaps are one
+# line naming the file; previews and contact sheets on a full disk fail
+# cleanly and leave nothing under their names; two outputs in one file are
+# refused before any frame.
+. "${FP_SRCDIR:-.}/tests/lib.sh"
+S=$FP_SAMPLES
+IN="$S/scene.0001.exr"
+
+# Fogmaps cut in the middle (before: the JPEG gave garbage and exit 0, the
+# PNG a second line from libpng).
+"$OIIOTOOL" --pattern noise:type=uniform:min=0:max=1 256x256 1 -d uint8 -o "$T/fm.png"
+"$OIIOTOOL" "$T/fm.png" -o "$T/fm.jpg"
+for e in png jpg; do
+  head -c "$(($(wc -c < "$T/fm.$e") / 2))" "$T/fm.$e" > "$T/cut.$e"
+done
+check "the whole fogmaps read" sh -c '"$1" --fogmap "$2" -i "$4" -o "$5/w1.exr" &&
+  "$1" --fogmap "$3" -i "$4" -o "$5/w2.exr"' sh "$FOGPIPE" "$T/fm.png" "$T/fm.jpg" "$IN" "$T"
+fails "a truncated PNG fogmap: one line naming it" 1 "cut\.png: truncated PNG" "$T/o1.exr" \
+  "$FOGPIPE" --fogmap "$T/cut.png" -i "$IN" -o "$T/o1.exr"
+fails "a truncated JPEG fogmap: one line naming it, no frame" 1 \
+  "cut\.jpg: cannot read the pixels: truncated or corrupt" "$T/o2.exr" \
+  "$FOGPIPE" --fogmap "$T/cut.jpg" -i "$IN" -o "$T/o2.exr"
+
+# Two outputs in one file.
+fails "--preview and --contact-sheet in one file: a usage error before any frame" 2 \
+  "--contact-sheet .*p\.png: the same file as --preview .*p\.png" "$T/o3.exr" \
+  "$FOGPIPE" -i "$IN" -o "$T/o3.exr" --preview "$T/p.png" --contact-sheet "$T/./p.png"
+fails "a contact sheet named like one of the previews: refused" 2 \
+  "--contact-sheet .*p\.0002\.png: the same file as --preview" "$T/o4.0001.exr" \
+  "$FOGPIPE" -i "$S/scene.####.exr" --frames 1-2 -o "$T/o4.####.exr" \
+  --preview "$T/p.####.png" --contact-sheet "$T/p.0002.png"
+
+# A full disk: a file size limit (SIGXFSZ ignored, so a write past it fails
+# with EFBIG as one past the end of a disk fails with ENOSPC).
+if command -v prlimit >/dev/null 2>&1; then
+  limited() { sh -c 'trap "" XFSZ; lim=$1; shift; exec prlimit --fsize="$lim" "$@" > /dev/null' sh "$@"; }
+  fails "a preview on a full disk: one line, exit 1, no file, no temporary" 1 \
+    "pd\.png: cannot write \(File too large\)" "$T/pd.png" \
+    limited 16000 "$FOGPIPE" -i "$IN" -o - --preview "$T/pd.png"
+  mkdir -p "$T/sheet"
+  "$FOGPIPE" -i "$S/scene.####.exr" --frames 1-2 -o - --preview "$T/sheet/p.####.png" \
+    --contact-sheet "$T/sheet/s.png" > /dev/null
+  big=$(wc -c < "$T/sheet/p.0002.png"); sheet=$(wc -c < "$T/sheet/s.png")
+  rm -rf "$T/sheet"; mkdir -p "$T/sheet"
+  if [ "$sheet" -gt $((big + big / 4)) ]; then
+    fails "a contact sheet on a full disk: one line, exit 1, no sheet, no temporary" 1 \
+      "s\.png: cannot write \(File too large\)" "$T/sheet/s.png" \
+      limited $(((big + sheet) / 2)) "$FOGPIPE" -i "$S/scene.####.exr" --frames 1-2 -o - \
+      --preview "$T/sheet/p.####.png" --contact-sheet "$T/sheet/s.png"
+  else
+    skip "the contact sheet ($sheet bytes) is not larger than a preview ($big bytes)"
+  fi
+else
+  skip "prlimit (util-linux)"
+fi
+finish
