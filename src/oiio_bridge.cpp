@@ -633,6 +633,11 @@ const fp_oiio_module_t module = { FP_OIIO_ABI, PACKAGE_VERSION, read_channel, wr
 
 }  // namespace
 
+extern "C" {
+__attribute__((visibility("default"))) extern const fp_oiio_abi_t fp_oiio_module_abi;
+const fp_oiio_abi_t fp_oiio_module_abi = { FP_OIIO_ABI, PACKAGE_VERSION };
+}
+
 extern "C" __attribute__((visibility("default"))) const fp_oiio_module_t *
 fp_oiio_module(fp_oiio_error_fn error, fp_oiio_warn_fn warn, fp_oiio_limits_fn limits)
 {

@@ -10,6 +10,7 @@
 #ifndef FP_OIIO_BRIDGE_H
 #define FP_OIIO_BRIDGE_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #ifdef __cplusplus
@@ -105,11 +106,25 @@ typedef struct fp_oiio_module_t {
     int (*tile_sheet)(const char *const *paths, int count, int columns, int max_size,
                       const char *out_path);
 } fp_oiio_module_t;
+/* The module's version, a const data symbol (FP_OIIO_ABI_SYMBOL) that the
+ * loader reads before it calls anything in the module. */
+typedef struct fp_oiio_abi_t {
+    int abi;           /* FP_OIIO_ABI of the module */
+    char version[60];  /* PACKAGE_VERSION it was built with, NUL-terminated */
+} fp_oiio_abi_t;
+#define FP_OIIO_ABI_SYMBOL "fp_oiio_module_abi"
 /* The module's entry point (FP_OIIO_ENTRY): called once, with the host's
- * message functions and its image budget. */
+ * message functions and its image budget, after its version matched. */
 #define FP_OIIO_ENTRY "fp_oiio_module"
 typedef const fp_oiio_module_t *(*fp_oiio_entry_fn)(fp_oiio_error_fn error, fp_oiio_warn_fn warn,
                                                     fp_oiio_limits_fn limits);
+
+/* The loader's check of a module file before dlopen trusts it (a cut
+ * file makes the dynamic loader touch pages past its end: SIGBUS): a
+ * regular file, an ELF shared object of the host's class, byte order and
+ * machine, whose program headers, segments, section headers and sections
+ * all lie inside the file.  0, or -1 with the reason in `why`. */
+int fp_oiio_module_check(const char *path, char *why, size_t n);
 
 #ifdef __cplusplus
 }

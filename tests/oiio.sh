@@ -54,4 +54,45 @@ if command -v prlimit >/dev/null 2>&1; then
 else
   skip "prlimit (util-linux)"
 fi
+# The module checked before dlopen trusts it: the program copied with a
+# module beside it (bin/../lib/fogpipe), the module cut, garbage, or of
+# another ABI.  Before, a cut module crashed the process (SIGBUS in dlopen).
+M="$T/inst/lib/fogpipe/fogpipe_oiio.so"
+mkdir -p "$T/inst/bin" "$T/inst/lib/fogpipe"
+cp "$FOGPIPE" "$T/inst/bin/fogpipe"
+cp "$FP_BUILDDIR/.libs/fogpipe_oiio.so" "$T/good.so"
+if [ -e "${FP_MODULE_DIR:-/nonexistent}/fogpipe_oiio.so" ]; then
+  skip "a fogpipe_oiio.so is installed in $FP_MODULE_DIR (it would be found instead)"
+else
+  cp "$T/good.so" "$M"
+  check "a copied fogpipe loads the module beside it" \
+    "$T/inst/bin/fogpipe" --fogmap "$T/fm.png" -i "$IN" -o "$T/m0.exr"
+  head -c "$(($(wc -c < "$T/good.so") / 2))" "$T/good.so" > "$M"
+  fails "a cut module: one line naming it and why, no crash" 1 \
+    "fm\.png: .*fogpipe_oiio\.so, which did not load: .*fogpipe_oiio\.so: .*cut" \
+    "$T/m1.exr" "$T/inst/bin/fogpipe" --fogmap "$T/fm.png" -i "$IN" -o "$T/m1.exr"
+  head -c 100000 /dev/urandom > "$M"
+  fails "a module of random bytes: one line" 1 \
+    "did not load: .*fogpipe_oiio\.so: not an ELF file" \
+    "$T/m2.exr" "$T/inst/bin/fogpipe" --fogmap "$T/fm.png" -i "$IN" -o "$T/m2.exr"
+  if printf '%s\n' '#include <stdlib.h>' \
+      'struct abi { int abi; char version[60]; };' \
+      '__attribute__((visibility("default"))) const struct abi fp_oiio_module_abi = { 999, "0" };' \
+      '__attribute__((visibility("default"))) void *fp_oiio_module(void) { abort(); }' > "$T/other.c" &&
+     ${CC:-cc} -shared -fPIC -o "$T/other.so" "$T/other.c" &&
+     printf '%s\n' '#include <stdlib.h>' \
+      '__attribute__((visibility("default"))) void *fp_oiio_module(void) { abort(); }' > "$T/old.c" &&
+     ${CC:-cc} -shared -fPIC -o "$T/old.so" "$T/old.c"; then
+    cp "$T/other.so" "$M"
+    fails "a module of another ABI: refused from its version symbol, nothing in it called" 1 \
+      "did not load: .*fogpipe_oiio\.so is of another fogpipe \(module ABI 999, expected [0-9]+\)" \
+      "$T/m3.exr" "$T/inst/bin/fogpipe" --fogmap "$T/fm.png" -i "$IN" -o "$T/m3.exr"
+    cp "$T/old.so" "$M"
+    fails "a module without the version symbol: refused, nothing in it called" 1 \
+      "did not load: .*fogpipe_oiio\.so is not a fogpipe OpenImageIO module" \
+      "$T/m4.exr" "$T/inst/bin/fogpipe" --fogmap "$T/fm.png" -i "$IN" -o "$T/m4.exr"
+  else
+    skip "a C compiler to build stand-in modules"
+  fi
+fi
 finish

@@ -398,6 +398,70 @@ static void test_full_disk(void **state)
     free(got);
 }
 
+/* The module file is checked before dlopen trusts it: the build's own
+ * passes; every cut of it (a cut module crashed the process with SIGBUS
+ * inside dlopen), a file of text, and ELF headers of another class, byte
+ * order, type or machine are each refused with a reason naming the file. */
+static void test_module_check(void **state)
+{
+    (void)state;
+    const char *build = getenv("FP_BUILDDIR");
+    char mod[4200];
+    snprintf(mod, sizeof mod, "%s/.libs/fogpipe_oiio.so", build && *build ? build : ".");
+    char why[8192] = "";
+    if (fp_oiio_module_check(mod, why, sizeof why) != 0)
+        fail_msg("the build's module refused: %s", why);
+    FILE *f = fopen(mod, "rb");
+    assert_non_null(f);
+    static unsigned char buf[8 << 20];
+    size_t size = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    assert_true(size > 4096 && size < sizeof buf);
+    const char *cut = tpath("cut.so");
+    size_t cuts[64 + 6];
+    int nc = 0;
+    for (int k = 1; k < 64; k++)
+        cuts[nc++] = size * k / 64;
+    cuts[nc++] = 10;
+    cuts[nc++] = 63;
+    cuts[nc++] = 64;
+    cuts[nc++] = 200;
+    cuts[nc++] = size - 1;
+    for (int k = 0; k < nc; k++) {
+        write_bytes(cut, buf, cuts[k]);
+        why[0] = 0;
+        if (fp_oiio_module_check(cut, why, sizeof why) == 0)
+            fail_msg("a module cut to %zu of %zu bytes passed", cuts[k], size);
+        if (!strstr(why, cut) || !strstr(why, cuts[k] < 64 ? "too short" : "cut"))
+            fail_msg("cut to %zu bytes: \"%s\"", cuts[k], why);
+    }
+    const char *text = tpath("text.so");
+    write_bytes(text, "not a module at all, just some text\n", 36);
+    assert_int_equal(fp_oiio_module_check(text, why, sizeof why), -1);
+    assert_non_null(strstr(why, "too short"));
+    memset(buf + 64, 'x', 4096);
+    write_bytes(text, buf + 64, 4096);
+    assert_int_equal(fp_oiio_module_check(text, why, sizeof why), -1);
+    assert_non_null(strstr(why, "not an ELF file"));
+    /* One byte of the header changed at a time: class, byte order, type
+     * (an executable), machine. */
+    static const struct { size_t at; unsigned char to; const char *says; } edits[] = {
+        { 4, 1, "-bit ELF file" }, { 5, 2, "byte order" }, { 16, 2, "not a shared object" },
+        { 18, 0x28, "another machine" },
+    };
+    for (size_t i = 0; i < FP_ARRAY_LEN(edits); i++) {
+        unsigned char old = buf[edits[i].at];
+        buf[edits[i].at] = edits[i].to;
+        write_bytes(tpath("edited.so"), buf, size);
+        buf[edits[i].at] = old;
+        assert_int_equal(fp_oiio_module_check(tpath("edited.so"), why, sizeof why), -1);
+        if (!strstr(why, edits[i].says))
+            fail_msg("header byte %zu set to %d: \"%s\"", edits[i].at, edits[i].to, why);
+    }
+    assert_int_equal(fp_oiio_module_check(tpath("nothere.so"), why, sizeof why), -1);
+    assert_int_equal(fp_oiio_module_check(dir, why, sizeof why), -1);
+}
+
 static int setup_group(void **state)
 {
     (void)state;
@@ -425,6 +489,7 @@ int main(void)
         cmocka_unit_test(test_budget_is_the_hosts),
         cmocka_unit_test(test_truncated_images_refused),
         cmocka_unit_test(test_full_disk),
+        cmocka_unit_test(test_module_check),
     };
     return cmocka_run_group_tests(tests, setup_group, teardown_group);
 }
