@@ -1,15 +1,10 @@
 /* fogpipe: the OpenImageIO bridge's functions (src/oiio_bridge.h), loading
  * the module fogpipe_oiio.so the first time one is called.
  *
- * Where the module is looked for, the first that loads and is of this
- * build (FP_OIIO_ABI and PACKAGE_VERSION) wins:
- *   - the build tree's .libs, when this code runs from the build tree (the
- *     program, the tests and libfogpipe.so there: never an older installed
- *     module);
- *   - beside the object holding this code, as installed: <dir>/fogpipe/
- *     (libfogpipe.so in $(libdir)) and <dir>/../lib/fogpipe/ (the program
- *     in $(bindir)), so that a DESTDIR or moved install finds its own;
- *   - $(pkglibdir), as configured. */
+ * The module is looked for where src/install.h says (the build tree's
+ * .libs from the build tree, beside the installed program or library,
+ * the configured $(pkglibdir)); the first that passes its checks, loads and
+ * is of this build (FP_OIIO_ABI and PACKAGE_VERSION) wins. */
 #define _GNU_SOURCE
 #include "config.h"
 
@@ -29,6 +24,7 @@
 
 #include "fp.h"
 #include "fp_limits.h"
+#include "install.h"
 #include "oiio_bridge.h"
 
 #define MODULE_NAME "fogpipe_oiio.so"
@@ -219,34 +215,11 @@ static int try_dir(const char *dir)
 
 static void load(void)
 {
-    Dl_info info;
-    char self[PATH_MAX] = "";
-    if (dladdr((void *)load, &info) && info.dli_fname && realpath(info.dli_fname, self)) {
-        char *slash = strrchr(self, '/');
-        if (slash)
-            *slash = 0;
-    }
-    /* The build tree's program, tests and library (not an install made
-     * into a directory inside it). */
-    int in_tree = 0;
-    static const char *const tree[] = { "", "/.libs", "/tests", "/tests/.libs" };
-    for (size_t i = 0; i < FP_ARRAY_LEN(tree); i++) {
-        char d[PATH_MAX + 32];
-        snprintf(d, sizeof d, "%s%s", FP_BUILDDIR, tree[i]);
-        in_tree |= self[0] && strcmp(self, d) == 0;
-    }
-    char dir[PATH_MAX + 32];
-    if (in_tree && try_dir(FP_BUILDDIR "/.libs"))
-        return;
-    if (self[0]) {
-        snprintf(dir, sizeof dir, "%s/fogpipe", self);
-        if (try_dir(dir))
+    const char *const *dirs;
+    int n = fp_install_dirs(FP_INSTALL_MODULES, &dirs);
+    for (int i = 0; i < n; i++)
+        if (try_dir(dirs[i]))
             return;
-        snprintf(dir, sizeof dir, "%s/../lib/fogpipe", self);
-        if (try_dir(dir))
-            return;
-    }
-    try_dir(FP_MODULE_DIR);
 }
 
 static int need(const char *path, const char *what)

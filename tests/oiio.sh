@@ -95,4 +95,47 @@ else
     skip "a C compiler to build stand-in modules"
   fi
 fi
+# One way of finding the install (src/install.h), from anywhere: `make
+# install prefix=P` and `make install DESTDIR=D`, the program run from PATH
+# in another directory (before, the module was looked for in
+# <cwd>/fogpipe: dladdr's bare "fogpipe" made absolute against the working
+# directory) reads a PNG fogmap, writes a PNG preview, finds its presets and
+# its OpenColorIO config; the Python module from the prefix does the same.
+mkdir -p "$T/elsewhere"
+R=$(cd "$T" && pwd -P)
+runs_from_path() {
+  # $1 the installed prefix; the rest, fogpipe's arguments after the checks'.
+  local bin="$1/bin"; shift
+  ( cd "$T/elsewhere" && rm -f p.png o.exr &&
+    PATH="$bin:$PATH" fogpipe -v --preset morning-valley-mist --output-space ACEScg \
+      --print-camera -i "$IN" > "$T/elsewhere/found.txt" 2>&1 &&
+    PATH="$bin:$PATH" fogpipe --fogmap "$T/fm.png" -i "$IN" -o o.exr --preview p.png &&
+    test "$(od -An -tx1 -N8 p.png | tr -d ' \n')" = 89504e470d0a1a0a && test -s o.exr )
+}
+found_in() {
+  grep -q "preset: $1/share/fogpipe/presets/morning-valley-mist\.preset" "$T/elsewhere/found.txt" &&
+    grep -q "OpenColorIO config (fogpipe.s config): $1/share/fogpipe/ocio/config\.ocio" "$T/elsewhere/found.txt"
+}
+if [ -e "${FP_MODULE_DIR:-/nonexistent}/fogpipe_oiio.so" ]; then
+  skip "a fogpipe_oiio.so is installed in $FP_MODULE_DIR (it would be found instead)"
+elif env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install prefix="$R/P" >"$T/install.txt" 2>&1 &&
+     env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install DESTDIR="$R/D" prefix=/opt/fp >>"$T/install.txt" 2>&1; then
+  check "make install prefix=P: fogpipe from PATH elsewhere reads a PNG fogmap, writes a PNG preview" \
+    runs_from_path "$R/P"
+  check "... and finds its preset and OpenColorIO config under P/share/fogpipe" found_in "$R/P"
+  check "make install DESTDIR=D: the same from PATH elsewhere" runs_from_path "$R/D/opt/fp"
+  check "... and finds its preset and OpenColorIO config under D/opt/fp/share/fogpipe" found_in "$R/D/opt/fp"
+  PY=${PYTHON3:-python3}
+  if "$PY" -c "import numpy" 2>/dev/null; then
+    check "the Python module from the prefix: PNG fogmap and preview through P/lib/fogpipe" sh -c '
+      cd "$1/elsewhere" && rm -f py.png py.exr &&
+      PYTHONPATH=$(echo "$1"/P/lib/python3*/*-packages) "$2" -c "import sys, fogpipe
+fogpipe.apply_file(sys.argv[1], \"py.exr\", fogmap=sys.argv[2], preview=\"py.png\", quiet=True)" "$3" "$4" &&
+      test "$(od -An -tx1 -N8 py.png | tr -d " \n")" = 89504e470d0a1a0a' sh "$R" "$PY" "$IN" "$T/fm.png"
+  else
+    skip "python3 with numpy"
+  fi
+else
+  not_ok "make install prefix=P and DESTDIR=D"; diag "$T/install.txt" 2>/dev/null || true
+fi
 finish
