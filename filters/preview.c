@@ -29,16 +29,49 @@ const fp_option_t fp_preview_options[] = {
     FP_OPT_END
 };
 
+static const char *const image_exts[] = { ".png", ".jpg", ".jpeg", ".tif", ".tiff" };
+
+/* The output (-o) by its extension: *image 0 for EXR ("-", no extension,
+ * .exr), 1 for an image written as the previews are; anything else is a
+ * usage error listing what is accepted: never EXR bytes under another
+ * format's name. */
+static int output_kind(const fp_params_t *p, int *image)
+{
+    const char *out = p->io.output;
+    *image = 0;
+    if (!out || strcmp(out, "-") == 0)
+        return FP_OK;
+    const char *slash = strrchr(out, '/');
+    const char *dot = strrchr(slash ? slash + 1 : out, '.');
+    if (!dot || dot == (slash ? slash + 1 : out) || strcasecmp(dot, ".exr") == 0)
+        return FP_OK;
+    int known = 0;
+    for (size_t i = 0; i < FP_ARRAY_LEN(image_exts); i++)
+        known |= strcasecmp(dot, image_exts[i]) == 0;
+    if (!known)
+        return fp_usage_error("-o %s: unknown output extension \"%s\" (expected .exr, or .png, "
+                              ".tif, .tiff, .jpg, .jpeg for the display-referred frame through "
+                              "--display and --view)", out, dot);
+    static const char *const exr_only[] = { "aov", "aov-only", "float", "compression",
+                                            "dwa-level" };
+    for (size_t i = 0; i < FP_ARRAY_LEN(exr_only); i++)
+        if (fp_options_given(p, exr_only[i]))
+            return fp_usage_error("-o %s: --%s shapes EXR output only (a %s output is the "
+                                  "display-referred frame, 8-bit; use a .exr name)", out,
+                                  exr_only[i], dot);
+    *image = 1;
+    return FP_OK;
+}
+
 /* An image name OpenImageIO writes as 8-bit RGB. */
 static int check_name(const char *what, const char *name)
 {
-    static const char *const exts[] = { ".png", ".jpg", ".jpeg", ".tif", ".tiff" };
     const char *slash = strrchr(name, '/');
     const char *base = slash ? slash + 1 : name;
     const char *dot = strrchr(base, '.');
     int known = 0;
-    for (size_t i = 0; dot && i < FP_ARRAY_LEN(exts); i++)
-        known |= strcasecmp(dot, exts[i]) == 0;
+    for (size_t i = 0; dot && i < FP_ARRAY_LEN(image_exts); i++)
+        known |= strcasecmp(dot, image_exts[i]) == 0;
     if (!known)
         return fp_usage_error("%s %s: expected a .png, .jpg or .tif file name", what, name);
     if (slash) {
@@ -130,6 +163,8 @@ int fp_preview_commit(const fp_params_t *p, fp_preview_t *s)
     s->sheet = p->preview.contact_sheet;
     s->columns = p->preview.columns;
     s->sheet_size = p->preview.sheet_size;
+    if ((rc = output_kind(p, &s->out_image)))
+        return rc;
     if (s->sheet && !s->pattern)
         return fp_usage_error("--contact-sheet %s needs --preview PATTERN (the sheet tiles the "
                               "previews)", s->sheet);
@@ -165,6 +200,33 @@ int fp_preview_commit(const fp_params_t *p, fp_preview_t *s)
     return FP_OK;
 }
 
+/* The frame's color through the display and view, written as 8-bit RGB
+ * with dither to `path`. */
+static int write_display(const char *path, const fp_color_frame_t *cf, const float *rgba, int w,
+                         int h, long frame)
+{
+    size_t n = (size_t)w * h;
+    float *rgb = malloc(n * 3 * sizeof(float));
+    if (!rgb)
+        return fp_error("%s: frame %ld: out of memory for the image", path, frame);
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++)
+            rgb[3 * i + c] = rgba[4 * i + c];
+    if (cf->to_display)
+        fp_ocio_apply(cf->to_display, rgb, n, 3);
+    int rc = fp_make_parent_dir(path, frame);
+    if (rc == FP_OK)
+        rc = fp_oiio_write_preview(path, rgb, w, h, 3, 8, 1);
+    free(rgb);
+    return rc;
+}
+
+int fp_preview_output(const fp_color_frame_t *cf, const float *rgba, int w, int h,
+                      const char *path, long frame)
+{
+    return write_display(path, cf, rgba, w, h, frame);
+}
+
 int fp_preview_frame(fp_preview_t *s, const fp_color_frame_t *cf, const float *rgba, int w,
                      int h, long frame)
 {
@@ -174,18 +236,7 @@ int fp_preview_frame(fp_preview_t *s, const fp_color_frame_t *cf, const float *r
     int rc = fp_seq_format(s->pattern, frame, path, sizeof path);
     if (rc)
         return rc;
-    size_t n = (size_t)w * h;
-    float *rgb = malloc(n * 3 * sizeof(float));
-    if (!rgb)
-        return fp_error("%s: frame %ld: out of memory for the preview", path, frame);
-    for (size_t i = 0; i < n; i++)
-        for (int c = 0; c < 3; c++)
-            rgb[3 * i + c] = rgba[4 * i + c];
-    if (cf->to_display)
-        fp_ocio_apply(cf->to_display, rgb, n, 3);
-    if ((rc = fp_make_parent_dir(path, frame)) == FP_OK)
-        rc = fp_oiio_write_preview(path, rgb, w, h, 3, 8, 1);
-    free(rgb);
+    rc = write_display(path, cf, rgba, w, h, frame);
     if (rc || !s->sheet)
         return rc;
     char *copy = strdup(path);

@@ -54,6 +54,28 @@ if command -v prlimit >/dev/null 2>&1; then
 else
   skip "prlimit (util-linux)"
 fi
+# Outputs by extension: -o x.png, .tif, .jpg are the display-referred frame
+# written as --preview writes it (before: EXR bytes under a .png name, exit
+# 0); an unknown extension and EXR-only options are usage errors before any
+# frame.
+check "-o x.png: a real PNG, the same bytes as --preview of the frame" sh -c '
+  "$1" -i "$2" -o "$3/x.png" --preview "$3/xp.png" &&
+  test "$(od -An -tx1 -N8 "$3/x.png" | tr -d " \n")" = 89504e470d0a1a0a &&
+  "$4" --info "$3/x.png" | grep -q "3 channel, uint8 png" && cmp "$3/x.png" "$3/xp.png"' \
+  sh "$FOGPIPE" "$IN" "$T" "$OIIOTOOL"
+check "-o x.####.TIF and -o x.jpeg: TIFF and JPEG frames" sh -c '
+  "$1" -i "$2/scene.####.exr" --frames 1-2 -o "$3/x.####.TIF" && "$1" -i "$2/scene.0001.exr" -o "$3/x.jpeg" &&
+  "$4" --info "$3/x.0002.TIF" | grep -q "uint8 tiff" && "$4" --info "$3/x.jpeg" | grep -q "uint8 jpeg"' \
+  sh "$FOGPIPE" "$S" "$T" "$OIIOTOOL"
+check "-o x.exr and -o x (no extension) stay EXR" sh -c '
+  "$1" -i "$2" -o "$3/y.exr" && "$1" -i "$2" -o "$3/y" &&
+  test "$(od -An -tx1 -N4 "$3/y" | tr -d " \n")" = 762f3101 && cmp "$3/y" "$3/y.exr"' sh "$FOGPIPE" "$IN" "$T"
+fails "-o x.ppm: an unknown extension, refused before any frame, listing what is accepted" 2 \
+  "-o .*x\.ppm: unknown output extension \"\.ppm\" \(expected \.exr, or \.png, \.tif, \.tiff, \.jpg, \.jpeg" \
+  "$T/x.ppm" "$FOGPIPE" -i "$IN" -o "$T/x.ppm"
+fails "-o x.png with --aov: EXR-only, refused before any frame" 2 "-o .*z\.png: --aov shapes EXR output only" \
+  "$T/z.png" "$FOGPIPE" -i "$IN" -o "$T/z.png" --aov
+
 # The module checked before dlopen trusts it: the program copied with a
 # module beside it (bin/../lib/fogpipe), the module cut, garbage, or of
 # another ABI.  Before, a cut module crashed the process (SIGBUS in dlopen).
