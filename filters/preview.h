@@ -27,6 +27,7 @@ typedef struct fp_preview_t {
     const char *pattern;        /* --preview, NULL: none */
     const char *sheet;          /* --contact-sheet, NULL: none */
     int columns, sheet_size;
+    int out_image;              /* -o names a .png, .tif or .jpg: fp_preview_output */
     pthread_mutex_t lock;
     int lock_ok;
     fp_preview_done_t *done;    /* previews written, for the sheet */
@@ -34,11 +35,18 @@ typedef struct fp_preview_t {
 } fp_preview_t;
 
 
-/* Check the names (pattern, extension, directory) before any frame. */
+/* Check the names (pattern, extension, directory) before any frame, and
+ * the output's extension (-o: .exr or none for EXR, an image extension for
+ * s->out_image, anything else a usage error). */
 int fp_preview_commit(const fp_params_t *p, fp_preview_t *s);
 /* Write frame `frame`'s preview from its output color (n = w*h RGBA). */
 int fp_preview_frame(fp_preview_t *s, const fp_color_frame_t *cf, const float *rgba, int w,
                      int h, long frame);
+/* The output frame itself as an image (-o x.png, .tif, .jpg; s->out_image),
+ * written as the previews are: through --display and --view, 8-bit RGB,
+ * dithered, atomically. */
+int fp_preview_output(const fp_color_frame_t *cf, const float *rgba, int w, int h,
+                      const char *path, long frame);
 /* After the last frame: the contact sheet, the previews in frame order. */
 int fp_preview_finish(fp_preview_t *s);
 void fp_preview_release(fp_preview_t *s);

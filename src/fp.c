@@ -115,26 +115,6 @@ void fp_info(const char *fmt, ...)
     va_end(ap);
 }
 
-int fp_exe_dir(char *dir, size_t n)
-{
-    char buf[4096];
-    ssize_t len = readlink("/proc/self/exe", buf, sizeof buf - 1);
-    char *slash = NULL;
-    if (len > 0) {
-        buf[len] = 0;
-        slash = strrchr(buf, '/');
-    }
-    if (!n)
-        return -1;
-    if (!slash || (size_t)(slash - buf) >= n) {
-        dir[0] = 0;
-        return -1;
-    }
-    memcpy(dir, buf, (size_t)(slash - buf));
-    dir[slash - buf] = 0;
-    return 0;
-}
-
 int fp_mkdir_p(const char *dir)
 {
     char buf[4096];

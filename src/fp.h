@@ -60,10 +60,6 @@ fp_msgbuf_t *fp_msg_capture(fp_msgbuf_t *sink);
 void fp_msg_flush(fp_msgbuf_t *b);
 void fp_msg_free(fp_msgbuf_t *b);
 
-/* The directory of the running executable into `dir` (n bytes); 0 when it
- * is known, -1 otherwise (dir then ""). */
-int fp_exe_dir(char *dir, size_t n);
-
 /* mkdir -p: `dir` and its missing parents (0777 less the umask).  0 when
  * it is a directory afterwards, -1 with errno set otherwise. */
 int fp_mkdir_p(const char *dir);

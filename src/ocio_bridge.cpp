@@ -18,6 +18,7 @@
 
 extern "C" {
 #include "fp.h"
+#include "install.h"
 }
 
 namespace OCIO = OCIO_NAMESPACE;
@@ -65,20 +66,6 @@ int copy_out(const std::string &s, char *out, size_t n, const char *what)
     return FP_OK;
 }
 
-bool readable(const std::string &p)
-{
-    struct stat st;
-    return stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode) && access(p.c_str(), R_OK) == 0;
-}
-
-// The directory of the running executable, "" if unknown.
-std::string exe_dir()
-{
-    char dir[4096];
-    fp_exe_dir(dir, sizeof dir);
-    return dir;
-}
-
 // "a, b, c, ..." of at most `max` names, for messages.
 template <typename F> std::string some_names(int count, int max, F &&name_at)
 {
@@ -111,29 +98,14 @@ extern "C" int fp_ocio_find_config(const char *explicit_path, char *path, size_t
             *origin = "$OCIO";
             return copy_out(env, path, n, "$OCIO");
         }
-        std::vector<std::string> tried;
-        std::string dir = exe_dir();
-        if (!dir.empty()) {
-            tried.push_back(dir + "/samples/ocio/config.ocio");
-            tried.push_back(dir + "/../share/fogpipe/ocio/config.ocio");
+        char found[4096], tried[8192];
+        if (fp_install_find("ocio/config.ocio", found, sizeof found, tried, sizeof tried) == 0) {
+            *origin = "fogpipe's config";
+            return copy_out(found, path, n, "fogpipe's OpenColorIO config");
         }
-#ifdef FP_OCIO_DIR
-        tried.push_back(std::string(FP_OCIO_DIR) + "/config.ocio");
-#endif
-#ifdef FP_OCIO_SRCDIR
-        tried.push_back(std::string(FP_OCIO_SRCDIR) + "/config.ocio");
-#endif
-        for (const auto &t : tried)
-            if (readable(t)) {
-                *origin = "fogpipe's config";
-                return copy_out(t, path, n, "fogpipe's OpenColorIO config");
-            }
-        std::string where;
-        for (const auto &t : tried)
-            where += (where.empty() ? "" : ", ") + t;
         return fp_error("no OpenColorIO config: neither --ocio nor $OCIO is set, and fogpipe's "
-                        "own config is not installed (looked in %s; expected `make install`)",
-                        where.c_str());
+                        "own config is not installed (looked for ocio/config.ocio in %s; "
+                        "expected `make install`)", tried);
     });
 }
 

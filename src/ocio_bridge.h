@@ -27,11 +27,11 @@ typedef struct fp_ocio_proc_t fp_ocio_proc_t;
 /* Where the config comes from, first found wins:
  *   1. `explicit_path` (--ocio) when non-NULL and non-empty;
  *   2. $OCIO when set and non-empty;
- *   3. fogpipe's own config (samples/ocio/config.ocio in the sources):
- *      next to the executable in a build tree (<exe dir>/samples/ocio),
- *      installed relative to the executable (<exe dir>/../share/fogpipe/ocio,
- *      so a relocated or DESTDIR install finds its own), the configured
- *      install directory FP_OCIO_DIR, and the source tree FP_OCIO_SRCDIR.
+ *   3. fogpipe's own config (samples/ocio/config.ocio in the sources),
+ *      ocio/config.ocio where fogpipe's installed files are
+ *      (src/install.h: the source tree from a build tree, beside the
+ *      program or the library, so a relocated or DESTDIR install finds its
+ *      own, then the configured $(pkgdatadir)).
  * Writes the path to `path` and what chose it ("--ocio", "$OCIO",
  * "fogpipe's config") to *origin.  Fails (listing where it looked) only when
  * nothing was given and no copy of fogpipe's config exists. */

@@ -7,9 +7,11 @@
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -17,8 +19,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <new>
 #include <string>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <vector>
@@ -32,6 +36,7 @@ extern "C" {
 namespace {
 fp_oiio_error_fn host_error;
 fp_oiio_warn_fn host_warn;
+fp_oiio_limits_fn host_limits;
 }  // namespace
 #define fp_error host_error
 #define fp_warn host_warn
@@ -82,6 +87,99 @@ struct Pixels {
     int bits = 0;  // 8 when the channels are stored in 8 bits, else 16 (or more)
 };
 
+uint32_t be32(const unsigned char *p)
+{
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+// PNG's CRC-32 (ISO 3309, the PNG specification's annex D).
+uint32_t png_crc(uint32_t crc, const unsigned char *p, size_t n)
+{
+    static uint32_t table[256];
+    static bool made = [] {
+        for (uint32_t i = 0; i < 256; i++) {
+            uint32_t c = i;
+            for (int k = 0; k < 8; k++)
+                c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            table[i] = c;
+        }
+        return true;
+    }();
+    (void)made;
+    for (size_t i = 0; i < n; i++)
+        crc = table[(crc ^ p[i]) & 0xff] ^ (crc >> 8);
+    return crc;
+}
+
+// A PNG's chunks, each there whole with its CRC, up to IEND, before libpng
+// reads it: libpng prints its errors on stderr besides returning them (a
+// second line), and a truncated or damaged file is ours to name.  Files
+// that are not PNGs pass.
+int check_png(const char *path)
+{
+    static const unsigned char sig[8] = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n' };
+    std::unique_ptr<FILE, int (*)(FILE *)> f(fopen(path, "rb"), fclose);
+    unsigned char head[8];
+    if (!f || fread(head, 1, 8, f.get()) != 8 || memcmp(head, sig, 8) != 0)
+        return FP_OK;
+    std::vector<unsigned char> buf(1 << 16);
+    for (long long at = 8, n = 0;; n++) {
+        char type[5] = "";
+        if (fread(head, 1, 8, f.get()) != 8)
+            return fp_error("%s: truncated PNG (the file ends at byte %lld, after %lld chunks "
+                            "and no IEND)", path, at, n);
+        uint32_t len = be32(head);
+        memcpy(type, head + 4, 4);
+        for (int i = 0; i < 4; i++)
+            if (!isalpha((unsigned char)type[i]))
+                type[i] = '?';
+        if (len > 0x7fffffffu)
+            return fp_error("%s: corrupt PNG (chunk %lld \"%s\" at byte %lld claims %lu bytes)",
+                            path, n + 1, type, at, (unsigned long)len);
+        uint32_t crc = png_crc(0xffffffffu, head + 4, 4);
+        for (uint32_t left = len; left > 0;) {
+            size_t want = std::min<size_t>(left, buf.size());
+            size_t got = fread(buf.data(), 1, want, f.get());
+            crc = png_crc(crc, buf.data(), got);
+            if (got != want)
+                return fp_error("%s: truncated PNG (chunk %lld \"%s\" at byte %lld has %lu "
+                                "bytes; the file ends %lu bytes into it)", path, n + 1, type,
+                                at, (unsigned long)len, (unsigned long)(len - left + got));
+            left -= (uint32_t)got;
+        }
+        if (fread(head, 1, 4, f.get()) != 4)
+            return fp_error("%s: truncated PNG (the file ends in chunk %lld \"%s\"'s CRC)",
+                            path, n + 1, type);
+        if (be32(head) != (crc ^ 0xffffffffu))
+            return fp_error("%s: corrupt PNG (chunk %lld \"%s\" at byte %lld fails its CRC)",
+                            path, n + 1, type, at);
+        if (memcmp(type, "IEND", 4) == 0)
+            return FP_OK;
+        at += 12 + (long long)len;
+    }
+}
+
+// The image's size from its header against the host's budget, before any
+// pixel is read: the pixels, a scanline of every channel (what a reader
+// decodes at once) and a tile.
+int check_size(const ImageSpec &spec, const char *path)
+{
+    if (spec.deep)
+        return fp_error("%s: deep image, expected flat pixels", path);
+    if (spec.depth != 1)
+        return fp_error("%s: expected a 2D image, got %dx%dx%d pixels", path, spec.width,
+                        spec.height, spec.depth);
+    int64_t bytes = 1;
+    for (int c = 0; c < spec.nchannels; c++)
+        bytes = std::max<int64_t>(bytes, (int64_t)spec.channelformat(c).size());
+    if (host_limits(path, -1, "image", spec.width, spec.height, spec.nchannels, bytes))
+        return FP_ERR;
+    if (spec.tile_width > 0 &&
+        host_limits(path, -1, "tile", spec.tile_width, spec.tile_height, spec.nchannels, bytes))
+        return FP_ERR;
+    return FP_OK;
+}
+
 // Opens `path` for reading values as data.  Prints the message and returns
 // null on failure.
 std::unique_ptr<ImageInput> open_data(const char *path)
@@ -95,6 +193,8 @@ std::unique_ptr<ImageInput> open_data(const char *path)
         fp_error("%s: is a directory, expected an image file", path);
         return nullptr;
     }
+    if (check_png(path) != FP_OK)
+        return nullptr;
     ImageSpec config;
     // CMYK (TIFF, PSD) and YCbCr (DPX) as stored, not converted to RGB.
     config.attribute("oiio:RawColor", 1);
@@ -102,9 +202,13 @@ std::unique_ptr<ImageInput> open_data(const char *path)
     // (PNG in linearized sRGB), which would change the colour channels.
     config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = ImageInput::open(path, &config);
-    if (!in)
+    if (!in) {
         fp_error("%s: not an image OpenImageIO can read (%s)", path,
                  one_line(OIIO::geterror()).c_str());
+        return nullptr;
+    }
+    if (check_size(in->spec(), path) != FP_OK)
+        return nullptr;
     return in;
 }
 
@@ -149,8 +253,14 @@ int read_channels(ImageInput &in, const char *path, int chbegin, int chend, Pixe
         ok = read_unorm<uint16_t>(in, chbegin, chend, TypeDesc::UINT16, 65535.0f, px.v);
     else
         ok = in.read_image(0, 0, chbegin, chend, TypeDesc::FLOAT, px.v.data());
-    if (!ok)
-        return fp_error("%s: cannot read the pixels (%s)", path,
+    // A reader may return pixels and an error (a truncated TIFF strip, a
+    // JPEG that ends early): the pixels are then garbage.
+    std::string err = in.geterror();
+    if (!ok || !err.empty())
+        return fp_error("%s: cannot read the pixels: truncated or corrupt image (%s)", path,
+                        one_line(err).c_str());
+    if (!in.close() || in.has_error())
+        return fp_error("%s: cannot read the image (%s)", path,
                         one_line(in.geterror()).c_str());
     px.width = spec.width;
     px.height = spec.height;
@@ -187,6 +297,73 @@ struct TmpFile {
             unlink(name.c_str());
     }
 };
+
+// An image file in memory that a writer may seek in, write over and read
+// back (libtiff does; OpenImageIO's IOVecOutput has no read, and the TIFFs
+// written through it lack their directory).
+class MemFile : public OIIO::Filesystem::IOProxy {
+public:
+    explicit MemFile(std::vector<unsigned char> &buf) : IOProxy("", Write), m_buf(buf) {}
+    const char *proxytype() const override { return "fogpipe-memory"; }
+    size_t read(void *buf, size_t size) override
+    {
+        size_t n = pread(buf, size, m_pos);
+        m_pos += (int64_t)n;
+        return n;
+    }
+    size_t write(const void *buf, size_t size) override
+    {
+        size_t n = pwrite(buf, size, m_pos);
+        m_pos += (int64_t)n;
+        return n;
+    }
+    size_t pread(void *buf, size_t size, int64_t offset) override
+    {
+        if (offset < 0 || (uint64_t)offset >= m_buf.size())
+            return 0;
+        size_t n = std::min(size, m_buf.size() - (size_t)offset);
+        memcpy(buf, m_buf.data() + offset, n);
+        return n;
+    }
+    size_t pwrite(const void *buf, size_t size, int64_t offset) override
+    {
+        if (offset < 0)
+            return 0;
+        if ((size_t)offset + size > m_buf.size())
+            m_buf.resize((size_t)offset + size);
+        memcpy(m_buf.data() + offset, buf, size);
+        return size;
+    }
+    size_t size() const override { return m_buf.size(); }
+
+private:
+    std::vector<unsigned char> &m_buf;
+};
+
+// Writes `bytes` as the file `name`, every write and the close checked;
+// -1 with errno set on failure.
+int write_whole(const char *name, const std::vector<unsigned char> &bytes)
+{
+    int fd = open(name, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd < 0)
+        return -1;
+    const unsigned char *p = bytes.data();
+    size_t left = bytes.size();
+    while (left > 0) {
+        ssize_t w = write(fd, p, left);
+        if (w < 0 && errno == EINTR)
+            continue;
+        if (w <= 0) {
+            int e = w < 0 ? errno : ENOSPC;
+            close(fd);
+            errno = e;
+            return -1;
+        }
+        p += w;
+        left -= (size_t)w;
+    }
+    return close(fd);
+}
 
 // Interleaved gradient noise (J. Jimenez, "Next Generation Post Processing
 // in Call of Duty: Advanced Warfare", SIGGRAPH 2014 course): a threshold in
@@ -245,14 +422,25 @@ int write_pixels(const char *path, const float *pixels, int width, int height, i
         return fp_error("%s: no extension to choose the image format by (expected .png, "
                         ".tif or .jpg)", path);
     std::string ext = base.substr(dot);
-    // OpenImageIO picks the format by the extension: keep it last.
     TmpFile tmp;
     tmp.name = dir + "." + base.substr(0, dot) + ".tmp." + std::to_string((long)getpid()) + ext;
 
-    auto out = ImageOutput::create(tmp.name);
+    // The writer encodes into memory and the file is written here, every
+    // write checked: OpenImageIO's writers do not all report a failed write
+    // (a PNG on a full disk was "written", cut), and libjpeg's exits the
+    // process.  TIFF is the exception: libtiff checks its own writes, and
+    // rewrites its directory in place (an EXIF one for the color space),
+    // which OpenImageIO 2.4's TIFF writer cannot do through a proxy.
+    std::vector<unsigned char> bytes;
+    MemFile vec(bytes);
+    auto out = ImageOutput::create(path);
     if (!out)
         return fp_error("%s: no image format for the extension \"%s\" (expected .png, .tif, "
                         ".jpg or another OpenImageIO writes)", path, ext.c_str());
+    bool in_memory = strcmp(out->format_name(), "tiff") != 0;
+    if (in_memory && !out->supports("ioproxy"))
+        return fp_error("%s: the %s format cannot be written here (expected .png, .tif or "
+                        ".jpg)", path, out->format_name());
     if (nch == 4 && !out->supports("alpha"))
         return fp_error("%s: the %s format has no alpha channel; expected 1 or 3 channels",
                         path, out->format_name());
@@ -266,7 +454,10 @@ int write_pixels(const char *path, const float *pixels, int width, int height, i
     // The TIFF writer stamps the current time unless DateTime is set; an
     // empty one writes no tag, so the same pixels give the same bytes.
     spec.attribute("DateTime", "");
-    if (!out->open(tmp.name, spec))
+    // Set just before open: a JPEG writer destroyed with a proxy and never
+    // opened crashes (OpenImageIO 2.4).
+    if (in_memory ? !out->set_ioproxy(&vec) || !out->open(path, spec)
+                  : !out->open(tmp.name, spec))
         return fp_error("%s: cannot write (%s)", path, one_line(out->geterror()).c_str());
     // Writers adapt what they cannot store (JPEG: 8 bits, no alpha) silently.
     const ImageSpec &got = out->spec();
@@ -289,10 +480,13 @@ int write_pixels(const char *path, const float *pixels, int width, int height, i
         auto q = quantize<uint8_t>(pixels, width, height, nch, 255.0, dither);
         ok = out->write_image(type, q.data());
     }
-    ok = ok && out->close();
+    ok = ok && !out->has_error();
+    ok = out->close() && ok && !out->has_error();
     if (!ok)
         return fp_error("%s: cannot write (%s)", path, one_line(out->geterror()).c_str());
     out.reset();
+    if (in_memory && write_whole(tmp.name.c_str(), bytes) != 0)
+        return fp_error("%s: cannot write (%s)", path, strerror(errno));
     if (rename(tmp.name.c_str(), path) != 0)
         return fp_error("%s: cannot rename %s into place (%s)", path, tmp.name.c_str(),
                         strerror(errno));
@@ -412,11 +606,15 @@ int tile_sheet(const char *const *paths, int count, int columns, int max_size,
                 ImageBuf src(spec, cell.v.data()), dst;
                 if (!ImageBufAlgo::resize(dst, src, "", 0.0f, ROI(0, tw, 0, th)))
                     return fp_error("%s: cannot scale %s to %dx%d for the contact sheet (%s)",
-                                    out_path, paths[i], tw, th, dst.geterror().c_str());
+                                    out_path, paths[i], tw, th,
+                                    one_line(dst.geterror()).c_str());
                 // The filter rings a little past the display range.
-                ImageBufAlgo::clamp(dst, dst, 0.0f, 1.0f);
                 cell.v.assign((size_t)tw * th * cell.nchannels, 0.0f);
-                dst.get_pixels(ROI(0, tw, 0, th), TypeDesc::FLOAT, cell.v.data());
+                if (!ImageBufAlgo::clamp(dst, dst, 0.0f, 1.0f) ||
+                    !dst.get_pixels(ROI(0, tw, 0, th), TypeDesc::FLOAT, cell.v.data()))
+                    return fp_error("%s: cannot scale %s to %dx%d for the contact sheet (%s)",
+                                    out_path, paths[i], tw, th,
+                                    one_line(dst.geterror()).c_str());
             }
             size_t row_len = (size_t)tw * cell.nchannels;
             size_t sheet_row = row_len * columns;
@@ -435,10 +633,16 @@ const fp_oiio_module_t module = { FP_OIIO_ABI, PACKAGE_VERSION, read_channel, wr
 
 }  // namespace
 
+extern "C" {
+__attribute__((visibility("default"))) extern const fp_oiio_abi_t fp_oiio_module_abi;
+const fp_oiio_abi_t fp_oiio_module_abi = { FP_OIIO_ABI, PACKAGE_VERSION };
+}
+
 extern "C" __attribute__((visibility("default"))) const fp_oiio_module_t *
-fp_oiio_module(fp_oiio_error_fn error, fp_oiio_warn_fn warn)
+fp_oiio_module(fp_oiio_error_fn error, fp_oiio_warn_fn warn, fp_oiio_limits_fn limits)
 {
     host_error = error;
     host_warn = warn;
+    host_limits = limits;
     return &module;
 }

@@ -10,6 +10,9 @@
 #ifndef FP_OIIO_BRIDGE_H
 #define FP_OIIO_BRIDGE_H
 
+#include <stddef.h>
+#include <stdint.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -23,6 +26,11 @@ extern "C" {
  *
  * `channel` is a channel name ("G", "density", "depth.Z"); NULL or "" means
  * the first channel.  Only the first subimage is read.
+ *
+ * The image's size is checked from its header against the image budget
+ * (src/fp_limits.h) before any pixel is read; the read is an error when
+ * OpenImageIO reports one, even with pixels (a truncated TIFF or JPEG), and
+ * a PNG's chunks are checked whole (CRCs, IEND) before libpng reads it.
  *
  * The pixels returned are the whole data window, which may be smaller or
  * larger than the display window (EXR) and whose origin is dropped: a
@@ -50,7 +58,9 @@ int fp_oiio_read_channel(const char *path, const char *channel, float **data, in
  * the nearest code.
  *
  * A format that cannot store the request is an error: 16 bits in JPEG, 4
- * channels in JPEG.  The write is atomic: the file is written under a
+ * channels in JPEG.  The write is atomic: the image is encoded in memory
+ * (TIFF excepted: libtiff checks its writes), written with every write
+ * checked, under a
  * temporary name in the same directory (".<name>.tmp.<pid>.<ext>") and
  * renamed over `path`; on failure nothing is left behind. */
 int fp_oiio_write_preview(const char *path, const float *pixels, int width, int height,
@@ -77,9 +87,15 @@ int fp_oiio_tile_sheet(const char *const *paths, int count, int columns, int max
  * never touch anything but EXR.  The module prints through the host's
  * messages (fp_error and fp_warn, passed in: per-thread sinks, the
  * library's emitter) and returns its entry points. */
-#define FP_OIIO_ABI 1
+#define FP_OIIO_ABI 2
 typedef int (*fp_oiio_error_fn)(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 typedef void (*fp_oiio_warn_fn)(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* The host's fp_image_limits_check (src/fp_limits.h): the module checks
+ * every image's size from its header with it before reading any pixel, so
+ * that the budget (--max-image-pixels) is the library's, one for all. */
+typedef int (*fp_oiio_limits_fn)(const char *file, long frame, const char *kind,
+                                 int64_t width, int64_t height, int64_t channels,
+                                 int64_t bytes_per_sample);
 typedef struct fp_oiio_module_t {
     int abi;             /* FP_OIIO_ABI of the module */
     const char *version; /* PACKAGE_VERSION it was built with */
@@ -90,10 +106,25 @@ typedef struct fp_oiio_module_t {
     int (*tile_sheet)(const char *const *paths, int count, int columns, int max_size,
                       const char *out_path);
 } fp_oiio_module_t;
-/* The module's one exported symbol (FP_OIIO_ENTRY): called once, with the
- * host's message functions. */
+/* The module's version, a const data symbol (FP_OIIO_ABI_SYMBOL) that the
+ * loader reads before it calls anything in the module. */
+typedef struct fp_oiio_abi_t {
+    int abi;           /* FP_OIIO_ABI of the module */
+    char version[60];  /* PACKAGE_VERSION it was built with, NUL-terminated */
+} fp_oiio_abi_t;
+#define FP_OIIO_ABI_SYMBOL "fp_oiio_module_abi"
+/* The module's entry point (FP_OIIO_ENTRY): called once, with the host's
+ * message functions and its image budget, after its version matched. */
 #define FP_OIIO_ENTRY "fp_oiio_module"
-typedef const fp_oiio_module_t *(*fp_oiio_entry_fn)(fp_oiio_error_fn error, fp_oiio_warn_fn warn);
+typedef const fp_oiio_module_t *(*fp_oiio_entry_fn)(fp_oiio_error_fn error, fp_oiio_warn_fn warn,
+                                                    fp_oiio_limits_fn limits);
+
+/* The loader's check of a module file before dlopen trusts it (a cut
+ * file makes the dynamic loader touch pages past its end: SIGBUS): a
+ * regular file, an ELF shared object of the host's class, byte order and
+ * machine, whose program headers, segments, section headers and sections
+ * all lie inside the file.  0, or -1 with the reason in `why`. */
+int fp_oiio_module_check(const char *path, char *why, size_t n);
 
 #ifdef __cplusplus
 }

@@ -1,5 +1,6 @@
 #include "options.h"
 #include "fp.h"
+#include "install.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -314,10 +315,10 @@ static char *trim(char *s)
     return s;
 }
 
-/* --preset NAME (no '/', no ".preset"): NAME.preset next to the binary's
- * install (../share/fogpipe/presets, so a moved install works), in the
- * configured install directory, or in the source tree (a build tree's
- * binary).  Anything else is a file name. */
+/* --preset NAME (no '/', no ".preset"): presets/NAME.preset where
+ * fogpipe's installed files are (src/install.h: beside the program or the
+ * library, so a moved install works; the configured directory; the source
+ * tree from a build tree).  Anything else is a file name. */
 static int find_preset(const char *arg, char *path, size_t n)
 {
     size_t len = strlen(arg);
@@ -326,21 +327,13 @@ static int find_preset(const char *arg, char *path, size_t n)
         snprintf(path, n, "%s", arg);
         return FP_OK;
     }
-    char exe[4096], tried[4][4200];
-    int nt = 0;
-    if (fp_exe_dir(exe, sizeof exe) == 0)
-        snprintf(tried[nt++], sizeof tried[0], "%s/../share/fogpipe/presets/%s.preset", exe, arg);
-    snprintf(tried[nt++], sizeof tried[0], "%s/%s.preset", FP_PRESETS_DIR, arg);
-    snprintf(tried[nt++], sizeof tried[0], "%s/%s.preset", FP_PRESETS_SRCDIR, arg);
-    for (int i = 0; i < nt; i++)
-        if (access(tried[i], R_OK) == 0) {
-            snprintf(path, n, "%.4199s", tried[i]);
-            return FP_OK;
-        }
+    char rel[4200], tried[8192];
+    snprintf(rel, sizeof rel, "presets/%s.preset", arg);
+    if (fp_install_find(rel, path, n, tried, sizeof tried) == 0)
+        return FP_OK;
     return fp_usage_error("--preset %s: no such file, and no preset of that name (looked for "
-                          "%s.preset in %s and %s; fogpipe's own: morning-valley-mist, "
-                          "low-sun-shafts, night-street-lamps)", arg, arg, FP_PRESETS_DIR,
-                          FP_PRESETS_SRCDIR);
+                          "%s in %s; fogpipe's own: morning-valley-mist, low-sun-shafts, "
+                          "night-street-lamps)", arg, rel, tried);
 }
 
 int fp_options_load_preset(fp_params_t *p, const char *arg)

@@ -31,7 +31,8 @@ const fp_option_t fp_io_options[] = {
       "input EXR: a file, a sequence (shot.####.exr, shot.%04d.exr), or - for a stream on stdin",
       NULL, 0 },
     { "output", 'o', FP_OPT_STRING, IO(output), 0, 0, "-", 0, 0, NULL, "PATTERN",
-      "output EXR: a file, a sequence pattern, or - for a stream on stdout", NULL, 0 },
+      "output EXR: a file, a sequence pattern, or - for a stream on stdout; a .png, .tif or "
+      ".jpg name writes the display-referred frame as --preview does", NULL, 0 },
     { "frames", 'f', FP_OPT_STRING, IO(frames), 0, 0, NULL, 0, 0, NULL, "LIST",
       "frames of a sequence: 1001-1100, 1-100x2, 5, -3, 1,3,7-9 (default: all found on disk; "
       "for a stream, the numbers given to its frames)", NULL, 0 },
@@ -441,7 +442,8 @@ static int write_frame(run_t *r, fp_loop_job_t *job)
     if (p->cmd.print_camera)
         return FP_OK;
     double t0 = fp_now_ms();
-    if ((rc = fp_exr_encode(f, fp_frame_rgba(f), &fs->wopts, out_name, frame, &bytes, &nbytes)))
+    if (!r->preview.out_image &&
+        (rc = fp_exr_encode(f, fp_frame_rgba(f), &fs->wopts, out_name, frame, &bytes, &nbytes)))
         goto done;
     double t1 = fp_now_ms();
     job->ms[FP_T_ENCODE] = t1 - t0;
@@ -454,7 +456,10 @@ static int write_frame(run_t *r, fp_loop_job_t *job)
     if (rc)
         goto done;
     fp_loop_commit_begin();
-    if (r->out_stream) {
+    if (r->preview.out_image) {   /* -o x.png: written as the previews are */
+        rc = fp_preview_output(&fs->color, fp_frame_rgba(f), fp_frame_info(f)->width,
+                               fp_frame_info(f)->height, out_name, frame);
+    } else if (r->out_stream) {
         /* The frame is encoded whole before the first byte goes out. */
         if (fwrite(bytes, 1, nbytes, r->out_stream) != nbytes || fflush(r->out_stream))
             rc = fp_error("<stdout>: frame %ld: write failed (%s)", frame, strerror(errno));

@@ -176,7 +176,7 @@ check "the build tree's fogpipe finds the config next to it" sh -c '"$1" -v -i "
 if [ -n "${FP_BUILDDIR:-}" ] && env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s -C "$FP_BUILDDIR" install DESTDIR="$T/dest" prefix=/opt/fp >"$T/install.txt" 2>&1; then
   check "make install puts the config in \$(pkgdatadir)/ocio" test -f "$T/dest/opt/fp/share/fogpipe/ocio/config.ocio"
   check "the installed fogpipe finds its config from /" sh -c 'cd / && "$1/opt/fp/bin/fogpipe" -v -i "$2" -o "$3" \
-    --output-space ACEScg 2> "$3.txt" && grep -q "OpenColorIO config (fogpipe.s config): $1/opt/fp/bin/../share/fogpipe/ocio/config.ocio" "$3.txt"' \
+    --output-space ACEScg 2> "$3.txt" && grep -q "OpenColorIO config (fogpipe.s config): $1/opt/fp/share/fogpipe/ocio/config.ocio" "$3.txt"' \
     sh "$T/dest" "$IN" "$T/installed.exr"
 else
   not_ok "make install DESTDIR"; diag "$T/install.txt" 2>/dev/null || true
