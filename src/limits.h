@@ -5,6 +5,10 @@
  * against these limits before it allocates or decodes anything, so a small
  * hostile file cannot make fogpipe allocate gigabytes.  `--max-image-pixels`
  * raises them for the rare legitimate giant. */
+/* -I src puts this file before the system's <limits.h>: pass that include on
+ * (INT_MAX, PATH_MAX) to it. */
+#include_next <limits.h>
+
 #ifndef FP_LIMITS_H
 #define FP_LIMITS_H
 
