@@ -26,6 +26,8 @@ struct fogpipe {
     void *user;
     char msg[2048];           /* the last failed call's message */
     char last[2048];          /* the last error-like line of the call in progress */
+    char **argv;              /* fogpipe_parse_args' copy of the command line (--stats) */
+    int argc;
 };
 
 /* One call at a time in the process (fogpipe.h, Threads): the emitter and
@@ -132,6 +134,13 @@ static void drop_session(fogpipe_t *c)
     c->session = NULL;
 }
 
+static void free_argv(char **argv, int argc)
+{
+    for (int i = 0; argv && i < argc; i++)
+        free(argv[i]);
+    free(argv);
+}
+
 void fogpipe_free(fogpipe_t *c)
 {
     if (!c)
@@ -140,6 +149,7 @@ void fogpipe_free(fogpipe_t *c)
     drop_session(c);
     fp_options_free(&c->p);
     leave(c, FP_OK);
+    free_argv(c->argv, c->argc);
     free(c);
 }
 
@@ -196,12 +206,35 @@ int fogpipe_parse_args(fogpipe_t *c, int argc, char **argv)
     enter(c);
     int rc;
     if (argc < 1 || !argv) {
-        rc = fail(c, FP_EUSAGE, "fogpipe_parse_args: no argv%s", NULL);
+        rc = fail(c, FP_EUSAGE, "fogpipe_parse_args: no argv%s (expected argc >= 1 and "
+                  "argv[0] the program)", NULL);
         return leave(c, rc);
     }
-    rc = fp_options_parse(argc, argv, &c->p);
+    for (int i = 0; i < argc; i++)
+        if (!argv[i]) {
+            char at[32];
+            snprintf(at, sizeof at, "%d", i);
+            return leave(c, fail(c, FP_EUSAGE, "fogpipe_parse_args: argv[%s] is NULL "
+                                 "(expected argc strings)", at));
+        }
+    /* The caller's strings are not kept (fogpipe.h, Ownership): --stats
+     * writes the command line at the end of fogpipe_run, after a host may
+     * have freed its argv.  The copy is parsed, so that nothing parsing
+     * keeps points into the caller's either. */
+    char **copy = calloc((size_t)argc + 1, sizeof *copy);
+    for (int i = 0; copy && i < argc; i++)
+        if (!(copy[i] = strdup(argv[i]))) {
+            free_argv(copy, i);
+            copy = NULL;
+        }
+    if (!copy)
+        return leave(c, fp_error("fogpipe_parse_args: out of memory"));
+    free_argv(c->argv, c->argc);
+    c->argv = copy;
+    c->argc = argc;
+    rc = fp_options_parse(argc, copy, &c->p);
     c->p.cmd.argc = argc;
-    c->p.cmd.argv = argv;
+    c->p.cmd.argv = copy;
     fp_quiet = c->p.io.quiet;
     fp_verbose = c->p.io.verbose;
     if (rc == FP_OK && c->p.io.preset)

@@ -80,7 +80,9 @@ const char *fogpipe_version(void);
 int fogpipe_set(fogpipe_t *ctx, const char *name, const char *value, const char *origin);
 
 /* Parse a command line (argv[0] is the program; presets first, the
- * command line wins), as the fogpipe program does. */
+ * command line wins), as the fogpipe program does.  argc strings, none
+ * NULL; the context keeps its own copy (for --stats), so the caller may
+ * free argv when the call returns. */
 int fogpipe_parse_args(fogpipe_t *ctx, int argc, char **argv);
 
 /* Messages: `kind` is one of FOGPIPE_MSG_*; `text` holds whole lines,
