@@ -28,11 +28,55 @@ struct fogpipe {
     char last[2048];          /* the last error-like line of the call in progress */
     char **argv;              /* fogpipe_parse_args' copy of the command line (--stats) */
     int argc;
+    int free_pending;         /* fogpipe_free from a message handler: freed at the call's end */
+    fogpipe_t *next_live;
 };
 
 /* One call at a time in the process (fogpipe.h, Threads): the emitter and
  * fp_quiet/fp_verbose are process-wide. */
 static pthread_mutex_t api_lock = PTHREAD_MUTEX_INITIALIZER;
+
+/* The contexts made by fogpipe_new and not yet freed (under live_lock, held
+ * only to look one up): a call on a freed context, or one that waited for
+ * api_lock while another thread freed it, is refused without reading it. */
+static pthread_mutex_t live_lock = PTHREAD_MUTEX_INITIALIZER;
+static fogpipe_t *live;
+
+/* The context of the call that holds api_lock on this thread: a call from
+ * one of its message handlers is re-entry, refused (api_lock is not
+ * recursive, and the call in progress is half done). */
+static _Thread_local fogpipe_t *in_call;
+
+static int alive(const fogpipe_t *c)
+{
+    pthread_mutex_lock(&live_lock);
+    const fogpipe_t *l = live;
+    while (l && l != c)
+        l = l->next_live;
+    pthread_mutex_unlock(&live_lock);
+    return l != NULL;
+}
+
+static void live_add(fogpipe_t *c)
+{
+    pthread_mutex_lock(&live_lock);
+    c->next_live = live;
+    live = c;
+    pthread_mutex_unlock(&live_lock);
+}
+
+static void live_remove(fogpipe_t *c)
+{
+    pthread_mutex_lock(&live_lock);
+    for (fogpipe_t **l = &live; *l; l = &(*l)->next_live)
+        if (*l == c) {
+            *l = c->next_live;
+            break;
+        }
+    pthread_mutex_unlock(&live_lock);
+}
+
+static const char not_live[] = "fogpipe: not a live context (freed, or not made by fogpipe_new)";
 
 /* Keep the last line that is not a warning or progress (the error a failed
  * call printed last), and hand the text to the context's handler. */
@@ -72,16 +116,51 @@ static void api_emit(void *user, int kind, const char *text, size_t len)
         free(t);
 }
 
-static void enter(fogpipe_t *c)
+/* Start a call on `c`: FP_OK with api_lock held, or the refusal (nothing
+ * held) of a call from a message handler (its message kept in c when c
+ * lives: this thread holds the lock) or on a context that is not alive. */
+static int enter(fogpipe_t *c, const char *fn)
 {
+    if (in_call) {
+        if (alive(c))
+            snprintf(c->msg, sizeof c->msg, "%s: called from a message handler (the library "
+                     "is not re-entrant: call it after the call in progress returns)", fn);
+        return FOGPIPE_ERROR;
+    }
     pthread_mutex_lock(&api_lock);
+    if (!alive(c)) {
+        pthread_mutex_unlock(&api_lock);
+        return FOGPIPE_EUSAGE;
+    }
+    in_call = c;
     fp_msg_set_emitter(api_emit, c);
     fp_quiet = c->p.io.quiet;
     fp_verbose = c->p.io.verbose;
     c->last[0] = 0;
+    return FP_OK;
 }
 
-/* The call's status; its message kept when it failed. */
+static void drop_session(fogpipe_t *c)
+{
+    fp_session_close(c->session);
+    c->session = NULL;
+}
+
+static void free_argv(char **argv, int argc);
+
+/* What a context owns, with api_lock held; the caller frees `c` itself
+ * after unlocking. */
+static void release(fogpipe_t *c)
+{
+    live_remove(c);
+    drop_session(c);
+    fp_options_free(&c->p);
+    free_argv(c->argv, c->argc);
+    c->argv = NULL;
+}
+
+/* The call's status; its message kept when it failed.  Contexts freed by a
+ * message handler during the call go now. */
 static int leave(fogpipe_t *c, int rc)
 {
     if (rc != FP_OK) {
@@ -91,7 +170,26 @@ static int leave(fogpipe_t *c, int rc)
         c->msg[0] = 0;
     }
     fp_msg_set_emitter(NULL, NULL);
+    fogpipe_t *doomed = NULL;
+    for (;;) {
+        pthread_mutex_lock(&live_lock);
+        fogpipe_t *d = live;
+        while (d && !d->free_pending)
+            d = d->next_live;
+        pthread_mutex_unlock(&live_lock);
+        if (!d)
+            break;
+        release(d);
+        d->next_live = doomed;
+        doomed = d;
+    }
+    in_call = NULL;
     pthread_mutex_unlock(&api_lock);
+    while (doomed) {
+        fogpipe_t *next = doomed->next_live;
+        free(doomed);
+        doomed = next;
+    }
     return rc;
 }
 
@@ -113,25 +211,28 @@ int fogpipe_new(fogpipe_t **out)
     if (!out)
         return FOGPIPE_EUSAGE;
     *out = NULL;
+    if (in_call)
+        return FOGPIPE_ERROR;   /* from a message handler (see enter) */
     fogpipe_t *c = calloc(1, sizeof *c);
     if (!c)
         return FOGPIPE_ERROR;
-    enter(c);
-    int rc = fp_options_defaults(&c->p);
+    live_add(c);
+    int rc = enter(c, "fogpipe_new");
+    if (rc) {
+        live_remove(c);
+        free(c);
+        return rc;
+    }
+    rc = fp_options_defaults(&c->p);
+    if (rc)
+        release(c);
     leave(c, rc);
     if (rc) {
-        fp_options_free(&c->p);
         free(c);
         return rc;
     }
     *out = c;
     return FOGPIPE_OK;
-}
-
-static void drop_session(fogpipe_t *c)
-{
-    fp_session_close(c->session);
-    c->session = NULL;
 }
 
 static void free_argv(char **argv, int argc)
@@ -145,35 +246,50 @@ void fogpipe_free(fogpipe_t *c)
 {
     if (!c)
         return;
-    enter(c);
-    drop_session(c);
-    fp_options_free(&c->p);
+    if (in_call) {
+        /* From a message handler (this thread holds api_lock): the call in
+         * progress, whichever context it is on, frees it when it leaves. */
+        if (alive(c))
+            c->free_pending = 1;
+        return;
+    }
+    if (enter(c, "fogpipe_free"))
+        return;   /* freed already */
+    release(c);
     leave(c, FP_OK);
-    free_argv(c->argv, c->argc);
     free(c);
 }
 
 const char *fogpipe_error(const fogpipe_t *c)
 {
-    return c ? c->msg : "fogpipe_error: no context (NULL)";
+    if (!c)
+        return "fogpipe_error: no context (NULL)";
+    return alive(c) ? c->msg : not_live;
 }
 
 void fogpipe_set_message_handler(fogpipe_t *c, fogpipe_message_fn fn, void *user)
 {
     if (!c)
         return;
-    pthread_mutex_lock(&api_lock);
-    c->fn = fn;
-    c->user = user;
-    pthread_mutex_unlock(&api_lock);
+    /* From a handler this thread holds api_lock already. */
+    int locked = !in_call;
+    if (locked)
+        pthread_mutex_lock(&api_lock);
+    if (alive(c)) {
+        c->fn = fn;
+        c->user = user;
+    }
+    if (locked)
+        pthread_mutex_unlock(&api_lock);
 }
 
 int fogpipe_set(fogpipe_t *c, const char *name, const char *value, const char *origin)
 {
     if (!c)
         return FOGPIPE_EUSAGE;
-    enter(c);
-    int rc;
+    int rc = enter(c, "fogpipe_set");
+    if (rc)
+        return rc;
     if (!name || !*name) {
         rc = fail(c, FP_EUSAGE, "fogpipe_set: no option name%s", NULL);
         return leave(c, rc);
@@ -203,8 +319,9 @@ int fogpipe_parse_args(fogpipe_t *c, int argc, char **argv)
 {
     if (!c)
         return FOGPIPE_EUSAGE;
-    enter(c);
-    int rc;
+    int rc = enter(c, "fogpipe_parse_args");
+    if (rc)
+        return rc;
     if (argc < 1 || !argv) {
         rc = fail(c, FP_EUSAGE, "fogpipe_parse_args: no argv%s (expected argc >= 1 and "
                   "argv[0] the program)", NULL);
@@ -248,8 +365,9 @@ int fogpipe_apply(fogpipe_t *c, const fogpipe_frame_t *in, float *out_rgba, floa
 {
     if (!c)
         return FOGPIPE_EUSAGE;
-    enter(c);
-    int rc = FP_OK;
+    int rc = enter(c, "fogpipe_apply");
+    if (rc)
+        return rc;
     if (!in || !in->rgba || !in->depth || !out_rgba)
         return leave(c, fail(c, FP_EUSAGE, "fogpipe_apply: %s is NULL (expected the frame's "
                                            "rgba and depth arrays and an output array)",
@@ -292,9 +410,10 @@ int fogpipe_run(fogpipe_t *c, int flags)
 {
     if (!c)
         return FOGPIPE_EUSAGE;
-    enter(c);
+    int rc = enter(c, "fogpipe_run");
+    if (rc)
+        return rc;
     fp_params_t *p = &c->p;
-    int rc;
     if (p->cmd.help || p->cmd.help_markdown) {
         fp_options_print_help(stdout, p->cmd.help_markdown);
         rc = FP_OK;

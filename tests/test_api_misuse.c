@@ -98,6 +98,200 @@ static void test_parse_args_null_entry(void **state)
     fogpipe_free(fp);
 }
 
+/* ------------------------------------------------------------ a frame */
+
+enum { W = 64, H = 48 };
+static float rgba[W * H * 4], depth[W * H], out[W * H * 4];
+
+static fogpipe_frame_t frame(void)
+{
+    for (int i = 0; i < W * H; i++) {
+        for (int k = 0; k < 4; k++)
+            rgba[4 * i + k] = k == 3 ? 1.0f : 0.25f * (float)(k + 1);
+        depth[i] = 5.0f + (float)(i % W) * 0.1f;
+    }
+    /* A negative depth: the apply warns (a message handler runs inside the
+     * call). */
+    depth[7] = -1;
+    fogpipe_frame_t in = FOGPIPE_FRAME_INITIALIZER;
+    in.width = W;
+    in.height = H;
+    in.rgba = rgba;
+    in.depth = depth;
+    in.name = "misuse-frame";
+    return in;
+}
+
+static fogpipe_t *make(void)
+{
+    fogpipe_t *fp = NULL;
+    assert_int_equal(fogpipe_new(&fp), FOGPIPE_OK);
+    assert_int_equal(fogpipe_set(fp, "camera-pos", "0,1,0", NULL), FOGPIPE_OK);
+    assert_int_equal(fogpipe_set(fp, "camera-target", "0,1,-1", NULL), FOGPIPE_OK);
+    assert_int_equal(fogpipe_set(fp, "vfov", "40", NULL), FOGPIPE_OK);
+    assert_int_equal(fogpipe_set(fp, "density", "0.05", NULL), FOGPIPE_OK);
+    return fp;
+}
+
+/* ------------------------------------------------------------ re-entry */
+
+/* What a handler that calls back into the library saw. */
+typedef struct reenter_t {
+    fogpipe_t *fp, *other;
+    int calls;
+    int set_rc, apply_rc, parse_rc, run_rc, new_rc, other_set_rc;
+    fogpipe_t *made;
+    char set_msg[600];
+    int free_self, free_other;
+} reenter_t;
+
+static void reenter(void *user, int kind, const char *text)
+{
+    reenter_t *r = user;
+    (void)text;
+    if (kind != FOGPIPE_MSG_WARNING || r->calls++)
+        return;
+    r->set_rc = fogpipe_set(r->fp, "density", "0.02", NULL);
+    snprintf(r->set_msg, sizeof r->set_msg, "%s", fogpipe_error(r->fp));
+    fogpipe_frame_t in = frame();
+    r->apply_rc = fogpipe_apply(r->fp, &in, out, NULL, NULL);
+    char *argv[] = { "host", "--density", "0.1", NULL };
+    r->parse_rc = fogpipe_parse_args(r->fp, 3, argv);
+    r->run_rc = fogpipe_run(r->fp, 0);
+    r->new_rc = fogpipe_new(&r->made);
+    if (r->other)
+        r->other_set_rc = fogpipe_set(r->other, "density", "0.02", NULL);
+    /* These work from a handler. */
+    assert_non_null(fogpipe_version());
+    fogpipe_set_message_handler(r->fp, reenter, r);
+    if (r->free_other)
+        fogpipe_free(r->other);
+    if (r->free_self)
+        fogpipe_free(r->fp);
+}
+
+/* A message handler that calls back into the library: an error naming
+ * the handler (the library lock is the caller's), never a deadlock; the
+ * call in progress goes on. */
+static void test_handler_reenters(void **state)
+{
+    (void)state;
+    reenter_t r;
+    memset(&r, 0, sizeof r);
+    r.fp = make();
+    assert_int_equal(fogpipe_new(&r.other), FOGPIPE_OK);
+    fogpipe_set_message_handler(r.fp, reenter, &r);
+    fogpipe_frame_t in = frame();
+    assert_int_equal(fogpipe_apply(r.fp, &in, out, NULL, NULL), FOGPIPE_OK);
+    assert_int_equal(r.calls, 1);
+    assert_int_equal(r.set_rc, FOGPIPE_ERROR);
+    printf("# %s\n", r.set_msg);
+    assert_non_null(strstr(r.set_msg, "fogpipe_set: called from a message handler"));
+    assert_int_equal(r.apply_rc, FOGPIPE_ERROR);
+    assert_int_equal(r.parse_rc, FOGPIPE_ERROR);
+    assert_int_equal(r.run_rc, FOGPIPE_ERROR);
+    assert_int_equal(r.new_rc, FOGPIPE_ERROR);
+    assert_null(r.made);
+    assert_int_equal(r.other_set_rc, FOGPIPE_ERROR);
+    assert_non_null(strstr(fogpipe_error(r.other), "called from a message handler"));
+    /* The refused calls changed nothing: the next apply is the same. */
+    float first[W * H * 4];
+    memcpy(first, out, sizeof out);
+    r.calls = 0;
+    assert_int_equal(fogpipe_apply(r.fp, &in, out, NULL, NULL), FOGPIPE_OK);
+    assert_memory_equal(first, out, sizeof out);
+    /* Outside a handler the same calls work. */
+    assert_int_equal(fogpipe_set(r.other, "density", "0.02", NULL), FOGPIPE_OK);
+    fogpipe_free(r.other);
+    fogpipe_free(r.fp);
+}
+
+/* fogpipe_free from a handler: its own context is freed when the call in
+ * progress returns (which still succeeds), another one at once. */
+static void test_free_from_handler(void **state)
+{
+    (void)state;
+    reenter_t r;
+    memset(&r, 0, sizeof r);
+    r.fp = make();
+    assert_int_equal(fogpipe_new(&r.other), FOGPIPE_OK);
+    r.free_self = r.free_other = 1;
+    fogpipe_set_message_handler(r.fp, reenter, &r);
+    fogpipe_frame_t in = frame();
+    assert_int_equal(fogpipe_apply(r.fp, &in, out, NULL, NULL), FOGPIPE_OK);
+    assert_int_equal(r.calls, 1);
+    for (int i = 0; i < W * H * 4; i++)
+        assert_true(isfinite(out[i]));
+    /* Both are gone: a call on either is refused without touching it. */
+    assert_int_equal(fogpipe_set(r.fp, "density", "0.1", NULL), FOGPIPE_EUSAGE);
+    assert_int_equal(fogpipe_set(r.other, "density", "0.1", NULL), FOGPIPE_EUSAGE);
+    assert_non_null(strstr(fogpipe_error(r.fp), "not a live context"));
+}
+
+/* ------------------------------------------------------------ free during a call */
+
+typedef struct race_t {
+    fogpipe_t *fp;
+    pthread_mutex_t m;
+    pthread_cond_t cv;
+    int inside, freed;
+} race_t;
+
+/* Inside thread A's apply: let thread B free the context, and give it time
+ * to reach the library while this call is still in progress. */
+static void inside(void *user, int kind, const char *text)
+{
+    race_t *r = user;
+    (void)text;
+    if (kind != FOGPIPE_MSG_WARNING)
+        return;
+    pthread_mutex_lock(&r->m);
+    r->inside = 1;
+    pthread_cond_broadcast(&r->cv);
+    pthread_mutex_unlock(&r->m);
+    usleep(200 * 1000);
+}
+
+static void *freer(void *arg)
+{
+    race_t *r = arg;
+    pthread_mutex_lock(&r->m);
+    while (!r->inside)
+        pthread_cond_wait(&r->cv, &r->m);
+    pthread_mutex_unlock(&r->m);
+    fogpipe_free(r->fp);
+    pthread_mutex_lock(&r->m);
+    r->freed = 1;
+    pthread_mutex_unlock(&r->m);
+    return NULL;
+}
+
+/* fogpipe_free on one thread while another is inside fogpipe_apply on the
+ * same context: the free waits for the call, which finishes with its
+ * frame; the context's later calls are refused, not run on freed memory. */
+static void test_free_during_apply(void **state)
+{
+    (void)state;
+    race_t r;
+    memset(&r, 0, sizeof r);
+    pthread_mutex_init(&r.m, NULL);
+    pthread_cond_init(&r.cv, NULL);
+    r.fp = make();
+    fogpipe_set_message_handler(r.fp, inside, &r);
+    pthread_t t;
+    assert_int_equal(pthread_create(&t, NULL, freer, &r), 0);
+    fogpipe_frame_t in = frame();
+    int rc = fogpipe_apply(r.fp, &in, out, NULL, NULL);
+    pthread_join(t, NULL);
+    assert_int_equal(rc, FOGPIPE_OK);
+    assert_int_equal(r.freed, 1);
+    assert_int_equal(fogpipe_apply(r.fp, &in, out, NULL, NULL), FOGPIPE_EUSAGE);
+    assert_non_null(strstr(fogpipe_error(r.fp), "not a live context"));
+    fogpipe_free(r.fp);   /* a second free is refused too */
+    pthread_mutex_destroy(&r.m);
+    pthread_cond_destroy(&r.cv);
+}
+
 int main(void)
 {
     if (!mkdtemp(tmpdir)) {
@@ -108,6 +302,9 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_parse_args_copies_argv),
         cmocka_unit_test(test_parse_args_null_entry),
+        cmocka_unit_test(test_free_during_apply),
+        cmocka_unit_test(test_handler_reenters),
+        cmocka_unit_test(test_free_from_handler),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     rmdir(tmpdir);
