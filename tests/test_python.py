@@ -113,6 +113,20 @@ check("float64 and non-contiguous arrays are accepted", lambda: fogpipe.apply(
     rgba.astype(np.float64)[:, ::-1], depth[:, ::-1], world_to_camera=w2c, world_to_ndc=w2n))
 
 
+# Integer, bool and other non-float arrays are refused (an 8-bit image is not
+# radiance 0-255): the message says what is expected.
+for dt in (np.uint8, np.uint16, np.int32, np.bool_, np.complex64):
+    check("rgba of dtype %s raises (expected linear float)" % np.dtype(dt).name,
+          lambda dt=dt: raises(apply_with(rgba=(rgba * 255).astype(dt)), "expected linear float"))
+check("integer depth raises", lambda: raises(apply_with(depth=np.zeros(depth.shape, np.int32)),
+                                             "depth has dtype int32 (expected linear float"))
+check("the message names the accepted dtypes", lambda: raises(
+    apply_with(rgba=rgba.astype(np.uint8)), "float32, float64 or float16"))
+check("float16 and big-endian float32 are accepted", lambda: (fogpipe.apply(
+    rgba.astype(np.float16), depth.astype(np.float16), world_to_camera=w2c, world_to_ndc=w2n),
+    fogpipe.apply(rgba.astype(">f4"), depth, world_to_camera=w2c, world_to_ndc=w2n)))
+
+
 class _Spy:
     """libfogpipe's functions as the module calls them, with fogpipe_apply
     held inside for a while: whether fogpipe_free ran while it was."""

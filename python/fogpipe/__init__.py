@@ -59,6 +59,11 @@ _c_float_p = ctypes.POINTER(ctypes.c_float)
 _c_double_p = ctypes.POINTER(ctypes.c_double)
 
 
+def _is_float(dtype):
+    """float16, float32 or float64, in either byte order."""
+    return dtype.kind == "f" and dtype.itemsize in (2, 4, 8)
+
+
 class _Frame(ctypes.Structure):
     _fields_ = [("width", ctypes.c_int), ("height", ctypes.c_int),
                 ("rgba", _c_float_p), ("depth", _c_float_p),
@@ -177,7 +182,8 @@ class Context:
                        ("fogpipe: %s=%r" % (name, value)).encode())
 
     def apply(self, rgba, depth, world_to_camera=None, world_to_ndc=None, frame=1, aov=False):
-        """Fog one frame: rgba HxWx4 and depth HxW (float32, or convertible),
+        """Fog one frame: rgba HxWx4 and depth HxW, scene-linear float
+        (float32; float64 and float16 are converted, other dtypes refused),
         the camera as OpenEXR's 4x4 worldToCamera and worldToNDC (row
         vectors), or from the options.  Returns the composite (HxWx4
         float32), and with aov=True also the fog layer (HxWx4: light, and
@@ -193,9 +199,13 @@ class Context:
                         "and width)" % (depth.shape, (h, w)))
         if h < 1 or w < 1:
             raise Error("fogpipe.apply: an empty image (%dx%d)" % (w, h))
+        # Pixels are scene-linear radiance: an integer image (8-bit sRGB,
+        # 16-bit) is not, and is refused rather than read as 0-255.
         for n, a in (("rgba", rgba), ("depth", depth)):
-            if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
-                raise Error("fogpipe.apply: %s has dtype %s (expected float32)" % (n, a.dtype))
+            if not _is_float(a.dtype):
+                raise Error("fogpipe.apply: %s has dtype %s (expected linear float: float32, "
+                            "float64 or float16; convert integer or display-referred images "
+                            "to scene-linear float first)" % (n, a.dtype))
         rgba = np.ascontiguousarray(rgba, dtype=np.float32)
         depth = np.ascontiguousarray(depth, dtype=np.float32)
         mats = []
