@@ -151,19 +151,57 @@ static void cross3(const double a[3], const double b[3], double out[3])
 
 /* ------------------------------------------------------------ sources */
 
+/* A projective matrix (worldToCamera, worldToNDC) is the same camera at any
+ * nonzero scale, and a header's or a host's may be scaled far from 1
+ * (1e300, 1e-300) where single precision (the kernels' view, fp_view_pack)
+ * holds nothing but 0 and inf.  Divide it by its largest |element|, in
+ * double; NULL, or why it is no projection at all. */
+static const char *normalize_projective(const double in[16], double out[16])
+{
+    double big = 0;
+    for (int i = 0; i < 16; i++) {
+        if (!isfinite(in[i]))
+            return "has a non-finite element (expected 16 finite numbers)";
+        big = fmax(big, fabs(in[i]));
+    }
+    if (!(big > 0))
+        return "is all zeros (expected a projective matrix)";
+    for (int i = 0; i < 16; i++)
+        out[i] = in[i] / big;
+    return NULL;
+}
+
 /* Orientation and position from worldToCamera: C2W = inverse(W2C); a
- * camera-space point c maps to [c,1] * C2W. */
-static int from_world_to_camera(const double w2c[16], fp_camera_t *c)
+ * camera-space point c maps to [c,1] * C2W, the world point times C2W[15]
+ * (1 for an affine worldToCamera; any scale of a normalized one). */
+static const char *camera_to_world(const double w2c[16], double c2w[16])
+{
+    if (fp_mat4_inverse(w2c, c2w))
+        return "is not invertible";
+    double big = 0;
+    for (int i = 0; i < 16; i++)
+        big = fmax(big, fabs(c2w[i]));
+    if (!(fabs(c2w[15]) > 1e-12 * big))
+        return "puts the camera at infinity (the w of its inverse's origin row is 0)";
+    double w = c2w[15];
+    for (int i = 0; i < 16; i++)
+        c2w[i] /= w;
+    return NULL;
+}
+
+/* NULL, or why worldToCamera gives no camera. */
+static const char *from_world_to_camera(const double w2c[16], fp_camera_t *c)
 {
     double c2w[16];
-    if (fp_mat4_inverse(w2c, c2w))
-        return FP_ERR;
+    const char *why = camera_to_world(w2c, c2w);
+    if (why)
+        return why;
     for (int i = 0; i < 3; i++) {
         c->origin[i] = c2w[12 + i];
         for (int j = 0; j < 3; j++)
             c->c2w[i * 3 + j] = c2w[j * 4 + i];  /* transpose: column convention */
     }
-    return FP_OK;
+    return NULL;
 }
 
 /* The NDC->camera homography from worldToNDC and worldToCamera: for
@@ -172,8 +210,8 @@ static int from_world_to_camera(const double w2c[16], fp_camera_t *c)
 static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_camera_t *c)
 {
     double c2w[16], c2n[16], g[9];
-    if (fp_mat4_inverse(w2c, c2w))
-        return FP_ERR;
+    if (camera_to_world(w2c, c2w))
+        return FP_ERR;   /* (from_world_to_camera said why) */
     fp_mat4_mul(c2w, w2n, c2n);
     /* A perspective projection's w grows with the depth z; an orthographic
      * one's does not (its rays are parallel, fp_view_origin_at). */
@@ -194,7 +232,27 @@ static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_came
         g[r * 3 + 1] = c2n[1 * 4 + k];
         g[r * 3 + 2] = (c->ortho ? 0 : c2n[2 * 4 + k]) + c2n[3 * 4 + k];
     }
-    return fp_mat3_inverse(g, c->ndc_to_cam);
+    if (fp_mat3_inverse(g, c->ndc_to_cam))
+        return FP_ERR;
+    /* A homography too: any scale, the one that single precision holds. */
+    double big = 0;
+    for (int i = 0; i < 9; i++)
+        big = fmax(big, fabs(c->ndc_to_cam[i]));
+    if (!(big > 0) || !isfinite(big))
+        return FP_ERR;
+    for (int i = 0; i < 9; i++)
+        c->ndc_to_cam[i] /= big;
+    return FP_OK;
+}
+
+/* What the kernels get in single precision (fp_view_pack) must be finite
+ * there: 1 when every number of `v` (n of them) is below 1e30. */
+static int fits_float(const double *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!(fabs(v[i]) < 1e30))
+            return 0;
+    return 1;
 }
 
 static void from_vfov(double vfov_deg, const fp_frame_info_t *info, fp_camera_t *c)
@@ -426,15 +484,18 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
     char src_pose[200] = "", src_proj[200] = "";
 
     if (info->has_world_to_camera) {
-        if (from_world_to_camera(info->world_to_camera, &c))
-            return fp_error("%s: frame %ld: worldToCamera is not invertible "
-                            "(override with --camera-pos/--camera-rot)", where_file, frame);
+        double w2c[16], w2n[16];
+        const char *why = normalize_projective(info->world_to_camera, w2c);
+        if (why || (why = from_world_to_camera(w2c, &c)))
+            return fp_error("%s: frame %ld: worldToCamera %s (override with "
+                            "--camera-pos/--camera-rot)", where_file, frame, why);
         have_pose = 1;
         snprintf(src_pose, sizeof src_pose, "header worldToCamera");
         if (info->has_world_to_ndc) {
-            if (from_world_to_ndc(info->world_to_camera, info->world_to_ndc, &c))
-                return fp_error("%s: frame %ld: worldToNDC is not a usable projection "
-                                "(override with --vfov)", where_file, frame);
+            why = normalize_projective(info->world_to_ndc, w2n);
+            if (why || from_world_to_ndc(w2c, w2n, &c))
+                return fp_error("%s: frame %ld: worldToNDC %s (override with --vfov)",
+                                where_file, frame, why ? why : "is not a usable projection");
             have_proj = 1;
             snprintf(src_proj, sizeof src_proj, "header worldToNDC");
         }
@@ -442,12 +503,14 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
         double w2c[16], w2n[16];
         if (parse_camera_text(info, where_file, frame, w2c, w2n))
             return FP_ERR;
-        if (from_world_to_camera(w2c, &c))
-            return fp_error("%s: frame %ld: attribute '%s': worldToCamera is not invertible",
-                            where_file, frame, info->camera_text_attr);
-        if (from_world_to_ndc(w2c, w2n, &c))
-            return fp_error("%s: frame %ld: attribute '%s': worldToNDC is not a usable "
-                            "projection", where_file, frame, info->camera_text_attr);
+        const char *why = normalize_projective(w2c, w2c);
+        if (why || (why = from_world_to_camera(w2c, &c)))
+            return fp_error("%s: frame %ld: attribute '%s': worldToCamera %s", where_file,
+                            frame, info->camera_text_attr, why);
+        why = normalize_projective(w2n, w2n);
+        if (why || from_world_to_ndc(w2c, w2n, &c))
+            return fp_error("%s: frame %ld: attribute '%s': worldToNDC %s", where_file, frame,
+                            info->camera_text_attr, why ? why : "is not a usable projection");
         have_pose = have_proj = 1;
         snprintf(src_pose, sizeof src_pose, "header %.64s (fogpipe-camera)", info->camera_text_attr);
         snprintf(src_proj, sizeof src_proj, "header %.64s (fogpipe-camera)", info->camera_text_attr);
@@ -507,6 +570,13 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
     if (!have_proj)
         return fp_error("%s: frame %ld: no projection (expected a worldToNDC header attribute; "
                         "or give --vfov)", where_file, frame);
+    /* A position or a scale of camera space beyond single precision (a
+     * worldToCamera whose 3x3 part is 1e-300 with w = 1 is such a camera,
+     * not a scaled projective matrix). */
+    if (!fits_float(c.origin, 3) || !fits_float(c.c2w, 9))
+        return fp_error("%s: frame %ld: the camera position/orientation from %s is beyond "
+                        "single precision (expected |position| and camera-space scale "
+                        "below 1e30)", where_file, frame, src_pose);
     snprintf(c.source, sizeof c.source, "position/orientation from %s, projection from %s",
              src_pose, src_proj);
     *out = c;

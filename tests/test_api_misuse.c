@@ -292,6 +292,89 @@ static void test_free_during_apply(void **state)
     pthread_cond_destroy(&r.cv);
 }
 
+/* ------------------------------------------------------------ cameras */
+
+/* A camera at (0.5, 1, 2) looking down world -z, 40 deg vertical: OpenEXR's
+ * worldToCamera and worldToNDC, each times its scale. */
+static void camera(double s_w2c, double s_w2n, double w2c[16], double w2n[16])
+{
+    const double m[16] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, -1, 0, -0.5, -1, 2, 1 };
+    double sy = 1 / (2 * tan(40 * M_PI / 360)), sx = sy * H / W;
+    const double pr[16] = { sx, 0, 0, 0, 0, -sy, 0, 0, 0.5, 0.5, 1, 1, 0, 0, 0, 0 };
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double t = 0;
+            for (int k = 0; k < 4; k++)
+                t += m[i * 4 + k] * pr[k * 4 + j];
+            w2n[i * 4 + j] = t * s_w2n;
+            w2c[i * 4 + j] = m[i * 4 + j] * s_w2c;
+        }
+}
+
+/* worldToCamera / worldToNDC scaled by 1e300, 1e-300 or -1 are the same
+ * projective camera: the same frame, finite, on the device and on the C
+ * path (before, the device's frame was all NaN with FOGPIPE_OK). */
+static void test_camera_scaled(void **state)
+{
+    (void)state;
+    static const double sc[][2] = { { 1e300, 1 }, { 1, 1e300 }, { 1e-300, 1e-300 },
+                                    { 1e300, 1e-300 }, { -1, 1e-200 } };
+    static float ref[W * H * 4];
+    for (int cpu = 0; cpu < 2; cpu++) {
+        fogpipe_t *fp;
+        assert_int_equal(fogpipe_new(&fp), FOGPIPE_OK);
+        assert_int_equal(fogpipe_set(fp, "density", "0.08", NULL), FOGPIPE_OK);
+        assert_int_equal(fogpipe_set(fp, "cpu", cpu ? "1" : "0", NULL), FOGPIPE_OK);
+        double w2c[16], w2n[16];
+        fogpipe_frame_t in = frame();
+        in.world_to_camera = w2c;
+        in.world_to_ndc = w2n;
+        camera(1, 1, w2c, w2n);
+        assert_int_equal(fogpipe_apply(fp, &in, ref, NULL, NULL), FOGPIPE_OK);
+        assert_true(fabsf(ref[4 * 100] - rgba[4 * 100]) > 1e-3f);   /* fogged */
+        for (size_t k = 0; k < sizeof sc / sizeof sc[0]; k++) {
+            camera(sc[k][0], sc[k][1], w2c, w2n);
+            assert_int_equal(fogpipe_apply(fp, &in, out, NULL, NULL), FOGPIPE_OK);
+            double d = 0;
+            for (int i = 0; i < W * H * 4; i++) {
+                assert_true(isfinite(out[i]));
+                d = fmax(d, fabs(out[i] - ref[i]));
+            }
+            printf("# %s, scales %g, %g: max |d| %.3g\n", cpu ? "--cpu" : "device", sc[k][0],
+                   sc[k][1], d);
+            assert_true(d <= 1e-5);
+        }
+        fogpipe_free(fp);
+    }
+}
+
+/* A matrix that is no projection: refused, its name in the message. */
+static void test_camera_degenerate(void **state)
+{
+    (void)state;
+    fogpipe_t *fp;
+    assert_int_equal(fogpipe_new(&fp), FOGPIPE_OK);
+    double w2c[16], w2n[16];
+    fogpipe_frame_t in = frame();
+    in.world_to_camera = w2c;
+    in.world_to_ndc = w2n;
+    camera(1, 1, w2c, w2n);
+    w2n[6] = NAN;
+    assert_int_equal(fogpipe_apply(fp, &in, out, NULL, NULL), FOGPIPE_ERROR);
+    assert_non_null(strstr(fogpipe_error(fp), "misuse-frame: frame 1: worldToNDC has a "
+                                              "non-finite element"));
+    camera(1, 1, w2c, w2n);
+    memset(w2c, 0, sizeof w2c);
+    assert_int_equal(fogpipe_apply(fp, &in, out, NULL, NULL), FOGPIPE_ERROR);
+    assert_non_null(strstr(fogpipe_error(fp), "worldToCamera is all zeros"));
+    camera(1, 1e-320, w2c, w2n);   /* subnormal: still the camera */
+    assert_int_equal(fogpipe_apply(fp, &in, out, NULL, NULL), FOGPIPE_OK);
+    camera(1, 0, w2c, w2n);
+    assert_int_equal(fogpipe_apply(fp, &in, out, NULL, NULL), FOGPIPE_ERROR);
+    assert_non_null(strstr(fogpipe_error(fp), "worldToNDC is all zeros"));
+    fogpipe_free(fp);
+}
+
 int main(void)
 {
     if (!mkdtemp(tmpdir)) {
@@ -305,6 +388,8 @@ int main(void)
         cmocka_unit_test(test_free_during_apply),
         cmocka_unit_test(test_handler_reenters),
         cmocka_unit_test(test_free_from_handler),
+        cmocka_unit_test(test_camera_scaled),
+        cmocka_unit_test(test_camera_degenerate),
     };
     int rc = cmocka_run_group_tests(tests, NULL, NULL);
     rmdir(tmpdir);

@@ -233,5 +233,19 @@ def close_race():
 
 check("three threads applying while a fourth closes: each apply a frame or 'closed'", close_race)
 
+
+def scaled_camera():
+    ref = fogpipe.apply(rgba, depth, world_to_camera=w2c, world_to_ndc=w2n, **opts)
+    for a, b in ((1e300, 1), (1, 1e-300), (1e-300, 1e300)):
+        out = fogpipe.apply(rgba, depth, world_to_camera=w2c * a, world_to_ndc=w2n * b, **opts)
+        assert np.isfinite(out).all(), "non-finite pixels with scales %g, %g" % (a, b)
+        d = float(np.abs(out - ref).max())
+        assert d <= 1e-5, (a, b, d)
+
+
+check("the camera matrices times 1e300 or 1e-300: the same frame, finite", scaled_camera)
+check("a worldToNDC of NaN raises with its name", lambda: raises(
+    apply_with(world_to_ndc=np.full((4, 4), np.nan)), "worldToNDC has a non-finite element"))
+
 print("1..%d" % n)
 sys.exit(1 if failed else 0)
