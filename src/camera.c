@@ -1,6 +1,7 @@
 #include "camera.h"
 #include "fp.h"
 #include "options.h"
+#include "textfile.h"
 
 #include <errno.h>
 #include <math.h>
@@ -373,13 +374,16 @@ static int read_chan(const char *path, long frame, double v[7])
                                           "vertical FOV" };
     const fp_option_t *rot_opt = fp_options_find("camera-rot");
     const fp_option_t *fov_opt = fp_options_find("vfov");
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return fp_error("%s: cannot open camera file (%s)", path, strerror(errno));
-    char line[1024];
-    int lineno = 0, found = 0, rc = FP_OK;
-    while (rc == FP_OK && fgets(line, sizeof line, f)) {
-        lineno++;
+    /* Bounded (src/textfile.h): --camera-chan /dev/zero fails instead of
+     * reading forever. */
+    fp_text_t t;
+    int rc = fp_text_open(&t, path, "camera file", 0);
+    if (rc)
+        return rc;
+    char *line;
+    int found = 0, got;
+    while (rc == FP_OK && (got = fp_text_next(&t, &line)) > 0) {
+        int lineno = t.lineno;
         char *s = line;
         while (*s == ' ' || *s == '\t')
             s++;
@@ -407,9 +411,9 @@ static int read_chan(const char *path, long frame, double v[7])
             found = 1;
         }
     }
-    if (rc == FP_OK && ferror(f))
-        rc = fp_error("%s: read error", path);
-    fclose(f);
+    if (rc == FP_OK && got < 0)
+        rc = t.rc;
+    fp_text_close(&t);
     if (rc == FP_OK && !found)
         rc = fp_error("%s: no line for frame %ld", path, frame);
     return rc;
