@@ -389,11 +389,26 @@ static int read_chan(const char *path, long frame, double v[7])
             s++;
         if (*s == '#' || *s == '\n' || *s == '\r' || *s == 0)
             continue;
+        /* Exactly 8 blank-separated numbers, each column a whole number
+         * (extra columns are another format, not ours to guess). */
         double a[8];
-        int n = sscanf(s, "%lf %lf %lf %lf %lf %lf %lf %lf", &a[0], &a[1], &a[2], &a[3],
-                       &a[4], &a[5], &a[6], &a[7]);
+        int n = 0;
+        for (char *tok = strtok(s, " \t"); tok; tok = strtok(NULL, " \t"), n++) {
+            char *end;
+            double x = strtod(tok, &end);
+            if (end == tok || *end) {
+                rc = fp_error("%s:%d: column %d '%.40s' is not a number (expected 'frame tx ty "
+                              "tz rx ry rz vfov')", path, lineno, n + 1, tok);
+                break;
+            }
+            if (n < 8)
+                a[n] = x;
+        }
+        if (rc != FP_OK)
+            break;
         if (n != 8) {
-            rc = fp_error("%s:%d: expected 'frame tx ty tz rx ry rz vfov'", path, lineno);
+            rc = fp_error("%s:%d: %d column%s (expected 8: 'frame tx ty tz rx ry rz vfov')", path,
+                          lineno, n, n == 1 ? "" : "s");
             break;
         }
         for (int i = 0; i < 8 && rc == FP_OK; i++) {

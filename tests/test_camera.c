@@ -608,6 +608,47 @@ static void test_degenerate_matrices(void **state)
     }
 }
 
+/* A .chan line has exactly the 8 columns 'frame tx ty tz rx ry rz vfov':
+ * more or fewer, or a column that is not all number, is refused with the
+ * file and line (extra columns used to be ignored). */
+static void test_chan_columns(void **state)
+{
+    (void)state;
+    const char *good = "1 0 1 5 0 0 0 40\n";
+    struct {
+        const char *line2, *want;
+    } bad[] = {
+        { "2 0 1 5 0 0 0 40 7\n", ":2: 9 columns (expected 8: 'frame tx ty tz rx ry rz vfov')" },
+        { "2 0 1 5 0 0 0 40 0 0 0 0\n", ":2: 12 columns (expected 8" },
+        { "2 0 1 5 0 0 0\n", ":2: 7 columns (expected 8" },
+        { "2 0 1 5 0 0 0 40 # a note\n", ":2: column 9 '#' is not a number" },
+        { "2 0 1 5 0 0 0 40abc\n", ":2: column 8 '40abc' is not a number" },
+        { "2 0 1 5 0 0,5 0 40\n", ":2: column 6 '0,5' is not a number" },
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        char text[256];
+        snprintf(text, sizeof text, "%s%s", good, bad[k].line2);
+        fp_msgbuf_t buf;
+        memset(&buf, 0, sizeof buf);
+        fp_msgbuf_t *prev = fp_msg_capture(&buf);
+        fp_camera_t c;
+        int rc = chan_camera(text, NULL, 0, 40, 30, 1, &c);
+        fp_msg_capture(prev);
+        char msg[600];
+        snprintf(msg, sizeof msg, "%.*s", (int)buf.len, buf.text ? buf.text : "");
+        fp_msg_free(&buf);
+        printf("# %s", msg);
+        assert_int_not_equal(rc, FP_OK);
+        assert_non_null(strstr(msg, "fogpipe: /tmp/fp-chan-"));
+        assert_non_null(strstr(msg, bad[k].want));
+    }
+    /* Tabs, blanks around, CRLF and exponents are fine. */
+    fp_camera_t c;
+    assert_int_equal(chan_camera("  1\t0 1 5 0 0 0 4e1  \r\n2 0 1 5 0 0 0 40\n", NULL, 0, 40, 30,
+                                 1, &c), FP_OK);
+    assert_double_equal(c.origin[2], 5, 1e-12);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -622,6 +663,7 @@ int main(void)
         cmocka_unit_test(test_sky),
         cmocka_unit_test(test_scaled_matrices),
         cmocka_unit_test(test_degenerate_matrices),
+        cmocka_unit_test(test_chan_columns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
