@@ -42,10 +42,18 @@ static pthread_mutex_t api_lock = PTHREAD_MUTEX_INITIALIZER;
 static pthread_mutex_t live_lock = PTHREAD_MUTEX_INITIALIZER;
 static fogpipe_t *live;
 
-/* The context of the call that holds api_lock on this thread: a call from
- * one of its message handlers is re-entry, refused (api_lock is not
+/* The context of the call that holds api_lock on this thread, and whether
+ * this thread runs a message handler (fogpipe_run's frame loop hands
+ * messages on from its own threads while the caller's thread holds the
+ * lock): a call from a handler is re-entry, refused (api_lock is not
  * recursive, and the call in progress is half done). */
 static _Thread_local fogpipe_t *in_call;
+static _Thread_local int in_handler;
+
+static int reentry(void)
+{
+    return in_call != NULL || in_handler > 0;
+}
 
 static int alive(const fogpipe_t *c)
 {
@@ -80,9 +88,21 @@ static const char not_live[] = "fogpipe: not a live context (freed, or not made 
 
 /* Keep the last line that is not a warning or progress (the error a failed
  * call printed last), and hand the text to the context's handler. */
+static pthread_mutex_t emit_lock = PTHREAD_MUTEX_INITIALIZER;
+
+static void api_emit_locked(fogpipe_t *c, int kind, const char *text, size_t len);
+
+/* The frame loop's threads emit too: one message at a time, so that a
+ * handler is never run on two threads at once and c->last is whole. */
 static void api_emit(void *user, int kind, const char *text, size_t len)
 {
-    fogpipe_t *c = user;
+    pthread_mutex_lock(&emit_lock);
+    api_emit_locked(user, kind, text, len);
+    pthread_mutex_unlock(&emit_lock);
+}
+
+static void api_emit_locked(fogpipe_t *c, int kind, const char *text, size_t len)
+{
     if (kind == FP_MSG_ERROR || kind == FP_MSG_KEPT) {
         const char *p = text, *end = text + len;
         while (p < end) {
@@ -111,7 +131,9 @@ static void api_emit(void *user, int kind, const char *text, size_t len)
         return;
     memcpy(t, text, len);
     t[len] = 0;
+    in_handler++;
     c->fn(c->user, kind, t);
+    in_handler--;
     if (t != buf)
         free(t);
 }
@@ -121,7 +143,7 @@ static void api_emit(void *user, int kind, const char *text, size_t len)
  * lives: this thread holds the lock) or on a context that is not alive. */
 static int enter(fogpipe_t *c, const char *fn)
 {
-    if (in_call) {
+    if (reentry()) {
         if (alive(c))
             snprintf(c->msg, sizeof c->msg, "%s: called from a message handler (the library "
                      "is not re-entrant: call it after the call in progress returns)", fn);
@@ -211,7 +233,7 @@ int fogpipe_new(fogpipe_t **out)
     if (!out)
         return FOGPIPE_EUSAGE;
     *out = NULL;
-    if (in_call)
+    if (reentry())
         return FOGPIPE_ERROR;   /* from a message handler (see enter) */
     fogpipe_t *c = calloc(1, sizeof *c);
     if (!c)
@@ -246,9 +268,9 @@ void fogpipe_free(fogpipe_t *c)
 {
     if (!c)
         return;
-    if (in_call) {
-        /* From a message handler (this thread holds api_lock): the call in
-         * progress, whichever context it is on, frees it when it leaves. */
+    if (reentry()) {
+        /* From a message handler (the call in progress holds api_lock):
+         * that call, whichever context it is on, frees it when it leaves. */
         if (alive(c))
             c->free_pending = 1;
         return;
@@ -271,8 +293,8 @@ void fogpipe_set_message_handler(fogpipe_t *c, fogpipe_message_fn fn, void *user
 {
     if (!c)
         return;
-    /* From a handler this thread holds api_lock already. */
-    int locked = !in_call;
+    /* From a handler the call in progress holds api_lock already. */
+    int locked = !reentry();
     if (locked)
         pthread_mutex_lock(&api_lock);
     if (alive(c)) {

@@ -49,9 +49,11 @@
  * a context that another thread may call next: a later fogpipe_new may be
  * given the same address.
  *
- * Callbacks.  A message handler runs on the calling thread, inside the
- * call and under the library's lock.  From a handler, fogpipe_error,
- * fogpipe_version and fogpipe_set_message_handler work; fogpipe_free marks
+ * Callbacks.  A message handler runs inside the call, under the library's
+ * lock, one message at a time: on the calling thread, or during
+ * fogpipe_run on one of the frame loop's threads.  From a handler,
+ * fogpipe_error, fogpipe_version and fogpipe_set_message_handler work;
+ * fogpipe_free marks
  * the context (any context) to be freed when the call in progress returns
  * (that call still finishes); every other call (fogpipe_new, _set,
  * _parse_args, _apply, _run), on any context, is refused with

@@ -228,6 +228,65 @@ static void test_free_from_handler(void **state)
     assert_non_null(strstr(fogpipe_error(r.fp), "not a live context"));
 }
 
+/* Every message of a fogpipe_run (progress, info, the frame loop's kept
+ * lines, from whichever thread the loop hands them on) calls back into the
+ * library: each call refused, the run goes on to the end. */
+typedef struct run_reenter_t {
+    fogpipe_t *fp;
+    pthread_mutex_t m;
+    int messages, refused, other;
+} run_reenter_t;
+
+static void run_reenter(void *user, int kind, const char *text)
+{
+    run_reenter_t *r = user;
+    (void)kind;
+    (void)text;
+    int rc = fogpipe_set(r->fp, "density", "0.02", NULL);
+    fogpipe_set_message_handler(r->fp, run_reenter, r);
+    pthread_mutex_lock(&r->m);
+    r->messages++;
+    if (rc == FOGPIPE_ERROR)
+        r->refused++;
+    else
+        r->other++;
+    pthread_mutex_unlock(&r->m);
+}
+
+static void test_handler_reenters_run(void **state)
+{
+    (void)state;
+    const char *samples = getenv("FP_SAMPLES");
+    if (!samples) {
+        printf("# no FP_SAMPLES (run through make check)\n");
+        skip();
+    }
+    char in[4096], outp[4200];
+    snprintf(in, sizeof in, "%s/scene.####.exr", samples);
+    snprintf(outp, sizeof outp, "%s/run.####.exr", tmpdir);
+    run_reenter_t r;
+    memset(&r, 0, sizeof r);
+    pthread_mutex_init(&r.m, NULL);
+    assert_int_equal(fogpipe_new(&r.fp), FOGPIPE_OK);
+    const char *const opts[][2] = { { "input", in }, { "output", outp }, { "frames", "1-3" },
+                                    { "progress", "lines" }, { "verbose", NULL },
+                                    { "cpu", NULL } };
+    for (size_t i = 0; i < sizeof opts / sizeof opts[0]; i++)
+        assert_int_equal(fogpipe_set(r.fp, opts[i][0], opts[i][1], NULL), FOGPIPE_OK);
+    fogpipe_set_message_handler(r.fp, run_reenter, &r);
+    assert_int_equal(fogpipe_run(r.fp, 0), FOGPIPE_OK);
+    printf("# %d messages, %d calls refused, %d not\n", r.messages, r.refused, r.other);
+    assert_true(r.messages >= 3);
+    assert_int_equal(r.refused, r.messages);
+    fogpipe_free(r.fp);
+    for (int f = 1; f <= 3; f++) {
+        char path[4300];
+        snprintf(path, sizeof path, "%s/run.%04d.exr", tmpdir, f);
+        assert_int_equal(unlink(path), 0);
+    }
+    pthread_mutex_destroy(&r.m);
+}
+
 /* ------------------------------------------------------------ free during a call */
 
 typedef struct race_t {
@@ -388,6 +447,7 @@ int main(void)
         cmocka_unit_test(test_free_during_apply),
         cmocka_unit_test(test_handler_reenters),
         cmocka_unit_test(test_free_from_handler),
+        cmocka_unit_test(test_handler_reenters_run),
         cmocka_unit_test(test_camera_scaled),
         cmocka_unit_test(test_camera_degenerate),
     };
