@@ -155,8 +155,8 @@ static void cross3(const double a[3], const double b[3], double out[3])
 /* A projective matrix (worldToCamera, worldToNDC) is the same camera at any
  * nonzero scale, and a header's or a host's may be scaled far from 1
  * (1e300, 1e-300) where single precision (the kernels' view, fp_view_pack)
- * holds nothing but 0 and inf.  Divide it by its largest |element|, in
- * double; NULL, or why it is no projection at all. */
+ * holds nothing but 0 and inf.  Scale it, in double, so that its largest
+ * |element| is in [1, 2); NULL, or why it is no projection at all. */
 static const char *normalize_projective(const double in[16], double out[16])
 {
     double big = 0;
@@ -167,8 +167,11 @@ static const char *normalize_projective(const double in[16], double out[16])
     }
     if (!(big > 0))
         return "is all zeros (expected a projective matrix)";
+    /* By a power of two: exact, so that a matrix near 1 already gives the
+     * very same camera as before, bit for bit. */
+    int e = ilogb(big);
     for (int i = 0; i < 16; i++)
-        out[i] = in[i] / big;
+        out[i] = ldexp(in[i], -e);
     return NULL;
 }
 
@@ -184,9 +187,16 @@ static const char *camera_to_world(const double w2c[16], double c2w[16])
         big = fmax(big, fabs(c2w[i]));
     if (!(fabs(c2w[15]) > 1e-12 * big))
         return "puts the camera at infinity (the w of its inverse's origin row is 0)";
-    double w = c2w[15];
-    for (int i = 0; i < 16; i++)
-        c2w[i] /= w;
+    /* To w = 1: its power of two exactly, the rest (w's mantissa) only when
+     * it is not 1 up to rounding (dividing by 1 + an ulp would move every
+     * number of an ordinary camera by one). */
+    int e = ilogb(c2w[15]);
+    double m = ldexp(c2w[15], -e);
+    for (int i = 0; i < 16; i++) {
+        c2w[i] = ldexp(c2w[i], -e);
+        if (fabs(m - 1) > 1e-12)
+            c2w[i] /= m;
+    }
     return NULL;
 }
 
@@ -235,14 +245,16 @@ static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_came
     }
     if (fp_mat3_inverse(g, c->ndc_to_cam))
         return FP_ERR;
-    /* A homography too: any scale, the one that single precision holds. */
+    /* A homography too: any scale, the one that single precision holds
+     * (a power of two: exact). */
     double big = 0;
     for (int i = 0; i < 9; i++)
         big = fmax(big, fabs(c->ndc_to_cam[i]));
     if (!(big > 0) || !isfinite(big))
         return FP_ERR;
+    int e = ilogb(big);
     for (int i = 0; i < 9; i++)
-        c->ndc_to_cam[i] /= big;
+        c->ndc_to_cam[i] = ldexp(c->ndc_to_cam[i], -e);
     return FP_OK;
 }
 
