@@ -4,6 +4,7 @@
 #include "oiio_bridge.h"
 #include "options.h"
 #include "seq.h"
+#include "textfile.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -431,6 +432,7 @@ static int get_key(fp_animate_t *a, fp_cl_t *cl, long at, long frame, int need_m
         char path[4096];
         int w, h, rc;
         if ((rc = fp_seq_format(a->pattern, frame, path, sizeof path)) ||
+            (rc = fp_image_file_check(path, "fogmap")) ||
             (rc = fp_oiio_read_channel(path, a->channel, &s->img, &w, &h)))
             return rc;
         if (w != a->w || h != a->h) {

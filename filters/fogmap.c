@@ -4,6 +4,7 @@
 #include "oiio_bridge.h"
 #include "options.h"
 #include "seq.h"
+#include "textfile.h"
 
 #include <errno.h>
 #include <math.h>
@@ -682,7 +683,8 @@ int fp_fogmap_commit(const fp_params_t *p, fp_cl_t *cl, fp_fogmap_stage_t *s,
     }
     float *img = NULL;
     int w, h;
-    if ((rc = fp_oiio_read_channel(path, fm->channel, &img, &w, &h)))
+    if ((rc = fp_image_file_check(path, "fogmap")) ||
+        (rc = fp_oiio_read_channel(path, fm->channel, &img, &w, &h)))
         return rc;
     fp_fogmap_clamp_negative(path, img, w, h);
     rc = fp_fogmap_setup(p, cl, img, w, h, s, d);

@@ -26,17 +26,83 @@ struct fogpipe {
     void *user;
     char msg[2048];           /* the last failed call's message */
     char last[2048];          /* the last error-like line of the call in progress */
+    char **argv;              /* fogpipe_parse_args' copy of the command line (--stats) */
+    int argc;
+    int free_pending;         /* fogpipe_free from a message handler: freed at the call's end */
+    fogpipe_t *next_live;
 };
 
 /* One call at a time in the process (fogpipe.h, Threads): the emitter and
  * fp_quiet/fp_verbose are process-wide. */
 static pthread_mutex_t api_lock = PTHREAD_MUTEX_INITIALIZER;
 
+/* The contexts made by fogpipe_new and not yet freed (under live_lock, held
+ * only to look one up): a call on a freed context, or one that waited for
+ * api_lock while another thread freed it, is refused without reading it. */
+static pthread_mutex_t live_lock = PTHREAD_MUTEX_INITIALIZER;
+static fogpipe_t *live;
+
+/* The context of the call that holds api_lock on this thread, and whether
+ * this thread runs a message handler (fogpipe_run's frame loop hands
+ * messages on from its own threads while the caller's thread holds the
+ * lock): a call from a handler is re-entry, refused (api_lock is not
+ * recursive, and the call in progress is half done). */
+static _Thread_local fogpipe_t *in_call;
+static _Thread_local int in_handler;
+
+static int reentry(void)
+{
+    return in_call != NULL || in_handler > 0;
+}
+
+static int alive(const fogpipe_t *c)
+{
+    pthread_mutex_lock(&live_lock);
+    const fogpipe_t *l = live;
+    while (l && l != c)
+        l = l->next_live;
+    pthread_mutex_unlock(&live_lock);
+    return l != NULL;
+}
+
+static void live_add(fogpipe_t *c)
+{
+    pthread_mutex_lock(&live_lock);
+    c->next_live = live;
+    live = c;
+    pthread_mutex_unlock(&live_lock);
+}
+
+static void live_remove(fogpipe_t *c)
+{
+    pthread_mutex_lock(&live_lock);
+    for (fogpipe_t **l = &live; *l; l = &(*l)->next_live)
+        if (*l == c) {
+            *l = c->next_live;
+            break;
+        }
+    pthread_mutex_unlock(&live_lock);
+}
+
+static const char not_live[] = "fogpipe: not a live context (freed, or not made by fogpipe_new)";
+
 /* Keep the last line that is not a warning or progress (the error a failed
  * call printed last), and hand the text to the context's handler. */
+static pthread_mutex_t emit_lock = PTHREAD_MUTEX_INITIALIZER;
+
+static void api_emit_locked(fogpipe_t *c, int kind, const char *text, size_t len);
+
+/* The frame loop's threads emit too: one message at a time, so that a
+ * handler is never run on two threads at once and c->last is whole. */
 static void api_emit(void *user, int kind, const char *text, size_t len)
 {
-    fogpipe_t *c = user;
+    pthread_mutex_lock(&emit_lock);
+    api_emit_locked(user, kind, text, len);
+    pthread_mutex_unlock(&emit_lock);
+}
+
+static void api_emit_locked(fogpipe_t *c, int kind, const char *text, size_t len)
+{
     if (kind == FP_MSG_ERROR || kind == FP_MSG_KEPT) {
         const char *p = text, *end = text + len;
         while (p < end) {
@@ -65,21 +131,58 @@ static void api_emit(void *user, int kind, const char *text, size_t len)
         return;
     memcpy(t, text, len);
     t[len] = 0;
+    in_handler++;
     c->fn(c->user, kind, t);
+    in_handler--;
     if (t != buf)
         free(t);
 }
 
-static void enter(fogpipe_t *c)
+/* Start a call on `c`: FP_OK with api_lock held, or the refusal (nothing
+ * held) of a call from a message handler (its message kept in c when c
+ * lives: this thread holds the lock) or on a context that is not alive. */
+static int enter(fogpipe_t *c, const char *fn)
 {
+    if (reentry()) {
+        if (alive(c))
+            snprintf(c->msg, sizeof c->msg, "%s: called from a message handler (the library "
+                     "is not re-entrant: call it after the call in progress returns)", fn);
+        return FOGPIPE_ERROR;
+    }
     pthread_mutex_lock(&api_lock);
+    if (!alive(c)) {
+        pthread_mutex_unlock(&api_lock);
+        return FOGPIPE_EUSAGE;
+    }
+    in_call = c;
     fp_msg_set_emitter(api_emit, c);
     fp_quiet = c->p.io.quiet;
     fp_verbose = c->p.io.verbose;
     c->last[0] = 0;
+    return FP_OK;
 }
 
-/* The call's status; its message kept when it failed. */
+static void drop_session(fogpipe_t *c)
+{
+    fp_session_close(c->session);
+    c->session = NULL;
+}
+
+static void free_argv(char **argv, int argc);
+
+/* What a context owns, with api_lock held; the caller frees `c` itself
+ * after unlocking. */
+static void release(fogpipe_t *c)
+{
+    live_remove(c);
+    drop_session(c);
+    fp_options_free(&c->p);
+    free_argv(c->argv, c->argc);
+    c->argv = NULL;
+}
+
+/* The call's status; its message kept when it failed.  Contexts freed by a
+ * message handler during the call go now. */
 static int leave(fogpipe_t *c, int rc)
 {
     if (rc != FP_OK) {
@@ -89,7 +192,26 @@ static int leave(fogpipe_t *c, int rc)
         c->msg[0] = 0;
     }
     fp_msg_set_emitter(NULL, NULL);
+    fogpipe_t *doomed = NULL;
+    for (;;) {
+        pthread_mutex_lock(&live_lock);
+        fogpipe_t *d = live;
+        while (d && !d->free_pending)
+            d = d->next_live;
+        pthread_mutex_unlock(&live_lock);
+        if (!d)
+            break;
+        release(d);
+        d->next_live = doomed;
+        doomed = d;
+    }
+    in_call = NULL;
     pthread_mutex_unlock(&api_lock);
+    while (doomed) {
+        fogpipe_t *next = doomed->next_live;
+        free(doomed);
+        doomed = next;
+    }
     return rc;
 }
 
@@ -111,14 +233,23 @@ int fogpipe_new(fogpipe_t **out)
     if (!out)
         return FOGPIPE_EUSAGE;
     *out = NULL;
+    if (reentry())
+        return FOGPIPE_ERROR;   /* from a message handler (see enter) */
     fogpipe_t *c = calloc(1, sizeof *c);
     if (!c)
         return FOGPIPE_ERROR;
-    enter(c);
-    int rc = fp_options_defaults(&c->p);
+    live_add(c);
+    int rc = enter(c, "fogpipe_new");
+    if (rc) {
+        live_remove(c);
+        free(c);
+        return rc;
+    }
+    rc = fp_options_defaults(&c->p);
+    if (rc)
+        release(c);
     leave(c, rc);
     if (rc) {
-        fp_options_free(&c->p);
         free(c);
         return rc;
     }
@@ -126,44 +257,61 @@ int fogpipe_new(fogpipe_t **out)
     return FOGPIPE_OK;
 }
 
-static void drop_session(fogpipe_t *c)
+static void free_argv(char **argv, int argc)
 {
-    fp_session_close(c->session);
-    c->session = NULL;
+    for (int i = 0; argv && i < argc; i++)
+        free(argv[i]);
+    free(argv);
 }
 
 void fogpipe_free(fogpipe_t *c)
 {
     if (!c)
         return;
-    enter(c);
-    drop_session(c);
-    fp_options_free(&c->p);
+    if (reentry()) {
+        /* From a message handler (the call in progress holds api_lock):
+         * that call, whichever context it is on, frees it when it leaves. */
+        if (alive(c))
+            c->free_pending = 1;
+        return;
+    }
+    if (enter(c, "fogpipe_free"))
+        return;   /* freed already */
+    release(c);
     leave(c, FP_OK);
     free(c);
 }
 
 const char *fogpipe_error(const fogpipe_t *c)
 {
-    return c ? c->msg : "fogpipe_error: no context (NULL)";
+    if (!c)
+        return "fogpipe_error: no context (NULL)";
+    return alive(c) ? c->msg : not_live;
 }
 
 void fogpipe_set_message_handler(fogpipe_t *c, fogpipe_message_fn fn, void *user)
 {
     if (!c)
         return;
-    pthread_mutex_lock(&api_lock);
-    c->fn = fn;
-    c->user = user;
-    pthread_mutex_unlock(&api_lock);
+    /* From a handler the call in progress holds api_lock already. */
+    int locked = !reentry();
+    if (locked)
+        pthread_mutex_lock(&api_lock);
+    if (alive(c)) {
+        c->fn = fn;
+        c->user = user;
+    }
+    if (locked)
+        pthread_mutex_unlock(&api_lock);
 }
 
 int fogpipe_set(fogpipe_t *c, const char *name, const char *value, const char *origin)
 {
     if (!c)
         return FOGPIPE_EUSAGE;
-    enter(c);
-    int rc;
+    int rc = enter(c, "fogpipe_set");
+    if (rc)
+        return rc;
     if (!name || !*name) {
         rc = fail(c, FP_EUSAGE, "fogpipe_set: no option name%s", NULL);
         return leave(c, rc);
@@ -193,15 +341,39 @@ int fogpipe_parse_args(fogpipe_t *c, int argc, char **argv)
 {
     if (!c)
         return FOGPIPE_EUSAGE;
-    enter(c);
-    int rc;
+    int rc = enter(c, "fogpipe_parse_args");
+    if (rc)
+        return rc;
     if (argc < 1 || !argv) {
-        rc = fail(c, FP_EUSAGE, "fogpipe_parse_args: no argv%s", NULL);
+        rc = fail(c, FP_EUSAGE, "fogpipe_parse_args: no argv%s (expected argc >= 1 and "
+                  "argv[0] the program)", NULL);
         return leave(c, rc);
     }
-    rc = fp_options_parse(argc, argv, &c->p);
+    for (int i = 0; i < argc; i++)
+        if (!argv[i]) {
+            char at[32];
+            snprintf(at, sizeof at, "%d", i);
+            return leave(c, fail(c, FP_EUSAGE, "fogpipe_parse_args: argv[%s] is NULL "
+                                 "(expected argc strings)", at));
+        }
+    /* The caller's strings are not kept (fogpipe.h, Ownership): --stats
+     * writes the command line at the end of fogpipe_run, after a host may
+     * have freed its argv.  The copy is parsed, so that nothing parsing
+     * keeps points into the caller's either. */
+    char **copy = calloc((size_t)argc + 1, sizeof *copy);
+    for (int i = 0; copy && i < argc; i++)
+        if (!(copy[i] = strdup(argv[i]))) {
+            free_argv(copy, i);
+            copy = NULL;
+        }
+    if (!copy)
+        return leave(c, fp_error("fogpipe_parse_args: out of memory"));
+    free_argv(c->argv, c->argc);
+    c->argv = copy;
+    c->argc = argc;
+    rc = fp_options_parse(argc, copy, &c->p);
     c->p.cmd.argc = argc;
-    c->p.cmd.argv = argv;
+    c->p.cmd.argv = copy;
     fp_quiet = c->p.io.quiet;
     fp_verbose = c->p.io.verbose;
     if (rc == FP_OK && c->p.io.preset)
@@ -215,8 +387,9 @@ int fogpipe_apply(fogpipe_t *c, const fogpipe_frame_t *in, float *out_rgba, floa
 {
     if (!c)
         return FOGPIPE_EUSAGE;
-    enter(c);
-    int rc = FP_OK;
+    int rc = enter(c, "fogpipe_apply");
+    if (rc)
+        return rc;
     if (!in || !in->rgba || !in->depth || !out_rgba)
         return leave(c, fail(c, FP_EUSAGE, "fogpipe_apply: %s is NULL (expected the frame's "
                                            "rgba and depth arrays and an output array)",
@@ -259,9 +432,10 @@ int fogpipe_run(fogpipe_t *c, int flags)
 {
     if (!c)
         return FOGPIPE_EUSAGE;
-    enter(c);
+    int rc = enter(c, "fogpipe_run");
+    if (rc)
+        return rc;
     fp_params_t *p = &c->p;
-    int rc;
     if (p->cmd.help || p->cmd.help_markdown) {
         fp_options_print_help(stdout, p->cmd.help_markdown);
         rc = FP_OK;

@@ -1,6 +1,7 @@
 #include "camera.h"
 #include "fp.h"
 #include "options.h"
+#include "textfile.h"
 
 #include <errno.h>
 #include <math.h>
@@ -151,19 +152,67 @@ static void cross3(const double a[3], const double b[3], double out[3])
 
 /* ------------------------------------------------------------ sources */
 
+/* A projective matrix (worldToCamera, worldToNDC) is the same camera at any
+ * nonzero scale, and a header's or a host's may be scaled far from 1
+ * (1e300, 1e-300) where single precision (the kernels' view, fp_view_pack)
+ * holds nothing but 0 and inf.  Scale it, in double, so that its largest
+ * |element| is in [1, 2); NULL, or why it is no projection at all. */
+static const char *normalize_projective(const double in[16], double out[16])
+{
+    double big = 0;
+    for (int i = 0; i < 16; i++) {
+        if (!isfinite(in[i]))
+            return "has a non-finite element (expected 16 finite numbers)";
+        big = fmax(big, fabs(in[i]));
+    }
+    if (!(big > 0))
+        return "is all zeros (expected a projective matrix)";
+    /* By a power of two: exact, so that a matrix near 1 already gives the
+     * very same camera as before, bit for bit. */
+    int e = ilogb(big);
+    for (int i = 0; i < 16; i++)
+        out[i] = ldexp(in[i], -e);
+    return NULL;
+}
+
 /* Orientation and position from worldToCamera: C2W = inverse(W2C); a
- * camera-space point c maps to [c,1] * C2W. */
-static int from_world_to_camera(const double w2c[16], fp_camera_t *c)
+ * camera-space point c maps to [c,1] * C2W, the world point times C2W[15]
+ * (1 for an affine worldToCamera; any scale of a normalized one). */
+static const char *camera_to_world(const double w2c[16], double c2w[16])
+{
+    if (fp_mat4_inverse(w2c, c2w))
+        return "is not invertible";
+    double big = 0;
+    for (int i = 0; i < 16; i++)
+        big = fmax(big, fabs(c2w[i]));
+    if (!(fabs(c2w[15]) > 1e-12 * big))
+        return "puts the camera at infinity (the w of its inverse's origin row is 0)";
+    /* To w = 1: its power of two exactly, the rest (w's mantissa) only when
+     * it is not 1 up to rounding (dividing by 1 + an ulp would move every
+     * number of an ordinary camera by one). */
+    int e = ilogb(c2w[15]);
+    double m = ldexp(c2w[15], -e);
+    for (int i = 0; i < 16; i++) {
+        c2w[i] = ldexp(c2w[i], -e);
+        if (fabs(m - 1) > 1e-12)
+            c2w[i] /= m;
+    }
+    return NULL;
+}
+
+/* NULL, or why worldToCamera gives no camera. */
+static const char *from_world_to_camera(const double w2c[16], fp_camera_t *c)
 {
     double c2w[16];
-    if (fp_mat4_inverse(w2c, c2w))
-        return FP_ERR;
+    const char *why = camera_to_world(w2c, c2w);
+    if (why)
+        return why;
     for (int i = 0; i < 3; i++) {
         c->origin[i] = c2w[12 + i];
         for (int j = 0; j < 3; j++)
             c->c2w[i * 3 + j] = c2w[j * 4 + i];  /* transpose: column convention */
     }
-    return FP_OK;
+    return NULL;
 }
 
 /* The NDC->camera homography from worldToNDC and worldToCamera: for
@@ -172,8 +221,8 @@ static int from_world_to_camera(const double w2c[16], fp_camera_t *c)
 static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_camera_t *c)
 {
     double c2w[16], c2n[16], g[9];
-    if (fp_mat4_inverse(w2c, c2w))
-        return FP_ERR;
+    if (camera_to_world(w2c, c2w))
+        return FP_ERR;   /* (from_world_to_camera said why) */
     fp_mat4_mul(c2w, w2n, c2n);
     /* A perspective projection's w grows with the depth z; an orthographic
      * one's does not (its rays are parallel, fp_view_origin_at). */
@@ -194,7 +243,29 @@ static int from_world_to_ndc(const double w2c[16], const double w2n[16], fp_came
         g[r * 3 + 1] = c2n[1 * 4 + k];
         g[r * 3 + 2] = (c->ortho ? 0 : c2n[2 * 4 + k]) + c2n[3 * 4 + k];
     }
-    return fp_mat3_inverse(g, c->ndc_to_cam);
+    if (fp_mat3_inverse(g, c->ndc_to_cam))
+        return FP_ERR;
+    /* A homography too: any scale, the one that single precision holds
+     * (a power of two: exact). */
+    double big = 0;
+    for (int i = 0; i < 9; i++)
+        big = fmax(big, fabs(c->ndc_to_cam[i]));
+    if (!(big > 0) || !isfinite(big))
+        return FP_ERR;
+    int e = ilogb(big);
+    for (int i = 0; i < 9; i++)
+        c->ndc_to_cam[i] = ldexp(c->ndc_to_cam[i], -e);
+    return FP_OK;
+}
+
+/* What the kernels get in single precision (fp_view_pack) must be finite
+ * there: 1 when every number of `v` (n of them) is below 1e30. */
+static int fits_float(const double *v, int n)
+{
+    for (int i = 0; i < n; i++)
+        if (!(fabs(v[i]) < 1e30))
+            return 0;
+    return 1;
 }
 
 static void from_vfov(double vfov_deg, const fp_frame_info_t *info, fp_camera_t *c)
@@ -315,23 +386,41 @@ static int read_chan(const char *path, long frame, double v[7])
                                           "vertical FOV" };
     const fp_option_t *rot_opt = fp_options_find("camera-rot");
     const fp_option_t *fov_opt = fp_options_find("vfov");
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return fp_error("%s: cannot open camera file (%s)", path, strerror(errno));
-    char line[1024];
-    int lineno = 0, found = 0, rc = FP_OK;
-    while (rc == FP_OK && fgets(line, sizeof line, f)) {
-        lineno++;
+    /* Bounded (src/textfile.h): --camera-chan /dev/zero fails instead of
+     * reading forever. */
+    fp_text_t t;
+    int rc = fp_text_open(&t, path, "camera file", 0);
+    if (rc)
+        return rc;
+    char *line;
+    int found = 0, got;
+    while (rc == FP_OK && (got = fp_text_next(&t, &line)) > 0) {
+        int lineno = t.lineno;
         char *s = line;
         while (*s == ' ' || *s == '\t')
             s++;
         if (*s == '#' || *s == '\n' || *s == '\r' || *s == 0)
             continue;
+        /* Exactly 8 blank-separated numbers, each column a whole number
+         * (extra columns are another format, not ours to guess). */
         double a[8];
-        int n = sscanf(s, "%lf %lf %lf %lf %lf %lf %lf %lf", &a[0], &a[1], &a[2], &a[3],
-                       &a[4], &a[5], &a[6], &a[7]);
+        int n = 0;
+        for (char *tok = strtok(s, " \t"); tok; tok = strtok(NULL, " \t"), n++) {
+            char *end;
+            double x = strtod(tok, &end);
+            if (end == tok || *end) {
+                rc = fp_error("%s:%d: column %d '%.40s' is not a number (expected 'frame tx ty "
+                              "tz rx ry rz vfov')", path, lineno, n + 1, tok);
+                break;
+            }
+            if (n < 8)
+                a[n] = x;
+        }
+        if (rc != FP_OK)
+            break;
         if (n != 8) {
-            rc = fp_error("%s:%d: expected 'frame tx ty tz rx ry rz vfov'", path, lineno);
+            rc = fp_error("%s:%d: %d column%s (expected 8: 'frame tx ty tz rx ry rz vfov')", path,
+                          lineno, n, n == 1 ? "" : "s");
             break;
         }
         for (int i = 0; i < 8 && rc == FP_OK; i++) {
@@ -349,9 +438,9 @@ static int read_chan(const char *path, long frame, double v[7])
             found = 1;
         }
     }
-    if (rc == FP_OK && ferror(f))
-        rc = fp_error("%s: read error", path);
-    fclose(f);
+    if (rc == FP_OK && got < 0)
+        rc = t.rc;
+    fp_text_close(&t);
     if (rc == FP_OK && !found)
         rc = fp_error("%s: no line for frame %ld", path, frame);
     return rc;
@@ -426,15 +515,18 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
     char src_pose[200] = "", src_proj[200] = "";
 
     if (info->has_world_to_camera) {
-        if (from_world_to_camera(info->world_to_camera, &c))
-            return fp_error("%s: frame %ld: worldToCamera is not invertible "
-                            "(override with --camera-pos/--camera-rot)", where_file, frame);
+        double w2c[16], w2n[16];
+        const char *why = normalize_projective(info->world_to_camera, w2c);
+        if (why || (why = from_world_to_camera(w2c, &c)))
+            return fp_error("%s: frame %ld: worldToCamera %s (override with "
+                            "--camera-pos/--camera-rot)", where_file, frame, why);
         have_pose = 1;
         snprintf(src_pose, sizeof src_pose, "header worldToCamera");
         if (info->has_world_to_ndc) {
-            if (from_world_to_ndc(info->world_to_camera, info->world_to_ndc, &c))
-                return fp_error("%s: frame %ld: worldToNDC is not a usable projection "
-                                "(override with --vfov)", where_file, frame);
+            why = normalize_projective(info->world_to_ndc, w2n);
+            if (why || from_world_to_ndc(w2c, w2n, &c))
+                return fp_error("%s: frame %ld: worldToNDC %s (override with --vfov)",
+                                where_file, frame, why ? why : "is not a usable projection");
             have_proj = 1;
             snprintf(src_proj, sizeof src_proj, "header worldToNDC");
         }
@@ -442,12 +534,14 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
         double w2c[16], w2n[16];
         if (parse_camera_text(info, where_file, frame, w2c, w2n))
             return FP_ERR;
-        if (from_world_to_camera(w2c, &c))
-            return fp_error("%s: frame %ld: attribute '%s': worldToCamera is not invertible",
-                            where_file, frame, info->camera_text_attr);
-        if (from_world_to_ndc(w2c, w2n, &c))
-            return fp_error("%s: frame %ld: attribute '%s': worldToNDC is not a usable "
-                            "projection", where_file, frame, info->camera_text_attr);
+        const char *why = normalize_projective(w2c, w2c);
+        if (why || (why = from_world_to_camera(w2c, &c)))
+            return fp_error("%s: frame %ld: attribute '%s': worldToCamera %s", where_file,
+                            frame, info->camera_text_attr, why);
+        why = normalize_projective(w2n, w2n);
+        if (why || from_world_to_ndc(w2c, w2n, &c))
+            return fp_error("%s: frame %ld: attribute '%s': worldToNDC %s", where_file, frame,
+                            info->camera_text_attr, why ? why : "is not a usable projection");
         have_pose = have_proj = 1;
         snprintf(src_pose, sizeof src_pose, "header %.64s (fogpipe-camera)", info->camera_text_attr);
         snprintf(src_proj, sizeof src_proj, "header %.64s (fogpipe-camera)", info->camera_text_attr);
@@ -507,6 +601,13 @@ int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
     if (!have_proj)
         return fp_error("%s: frame %ld: no projection (expected a worldToNDC header attribute; "
                         "or give --vfov)", where_file, frame);
+    /* A position or a scale of camera space beyond single precision (a
+     * worldToCamera whose 3x3 part is 1e-300 with w = 1 is such a camera,
+     * not a scaled projective matrix). */
+    if (!fits_float(c.origin, 3) || !fits_float(c.c2w, 9))
+        return fp_error("%s: frame %ld: the camera position/orientation from %s is beyond "
+                        "single precision (expected |position| and camera-space scale "
+                        "below 1e30)", where_file, frame, src_pose);
     snprintf(c.source, sizeof c.source, "position/orientation from %s, projection from %s",
              src_pose, src_proj);
     *out = c;

@@ -11,6 +11,7 @@
 #include "exr_internal.h"
 #include "fp.h"
 #include "fp_limits.h"
+#include "textfile.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -82,7 +83,7 @@ static void samples_to_float(const fp_chan_t *ch, size_t first, size_t n,
 /* ------------------------------------------------------------ whole files */
 
 /* Read a file into a malloc'd buffer without printing; *err is the errno. */
-static int slurp(const char *path, void **buf, size_t *size, int *err)
+static int slurp(const char *path, void **buf, size_t *size, int *err, int exr)
 {
     int rc = FP_ERR;
     int fd = -1;
@@ -103,7 +104,8 @@ static int slurp(const char *path, void **buf, size_t *size, int *err)
         goto done;
     }
     /* A regular file's size is a good first guess; pipes grow the buffer. */
-    cap = (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0)
+    int regular = fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+    cap = (regular && st.st_size > 0)
               ? (size_t) st.st_size + 1
               : 65536;
     b = malloc(cap);
@@ -131,6 +133,15 @@ static int slurp(const char *path, void **buf, size_t *size, int *err)
         if (n == 0)
             break;
         len += (size_t) n;
+        /* A device or a pipe may never end (/dev/zero): an EXR stops at
+         * its first bytes when they are not the magic number (the parser
+         * then says so), and nothing grows beyond the image budget. */
+        if (!regular && exr && len >= 4 && memcmp(b, "\x76\x2f\x31\x01", 4) != 0)
+            break;
+        if (!regular && (int64_t) len > fp_image_file_max_bytes()) {
+            *err = EFBIG;
+            goto done;
+        }
     }
     *buf = b;
     *size = len;
@@ -146,7 +157,7 @@ done:
 int fp_read_whole_file(const char *path, void **buf, size_t *size)
 {
     int err;
-    if (slurp(path, buf, size, &err) != FP_OK)
+    if (slurp(path, buf, size, &err, 0) != FP_OK)
         return fp_error("%s: cannot read (%s)", path, strerror(err));
     return FP_OK;
 }
@@ -953,9 +964,10 @@ done:
 int fp_exr_load_file(const char *path, long frame, void **buf, size_t *size)
 {
     int err = 0;
-    if (slurp(path, buf, size, &err) != FP_OK)
+    if (slurp(path, buf, size, &err, 1) != FP_OK)
         return fp_error("%s: frame %ld: cannot read (%s)", path, frame,
-                        strerror(err));
+                        err == EFBIG ? "a device or pipe giving more bytes than the image "
+                                       "budget allows" : strerror(err));
     return FP_OK;
 }
 

@@ -40,7 +40,26 @@
  * Threads.  A context is used by one thread at a time.  Calls into the
  * library are serialized by one process-wide lock (the OpenCL device and
  * the message routing are shared), so contexts on several threads are
- * safe but do not run at once.
+ * safe but do not run at once.  fogpipe_free while another thread is in a
+ * call on the same context waits for that call to return.  The library
+ * keeps the list of live contexts: a call on a freed context (or one that
+ * was waiting for the lock while another thread freed it) is refused with
+ * FOGPIPE_EUSAGE without touching it, a second fogpipe_free does nothing,
+ * and fogpipe_error says "not a live context".  A host must still not free
+ * a context that another thread may call next: a later fogpipe_new may be
+ * given the same address.
+ *
+ * Callbacks.  A message handler runs inside the call, under the library's
+ * lock, one message at a time: on the calling thread, or during
+ * fogpipe_run on one of the frame loop's threads.  From a handler,
+ * fogpipe_error, fogpipe_version and fogpipe_set_message_handler work;
+ * fogpipe_free marks
+ * the context (any context) to be freed when the call in progress returns
+ * (that call still finishes); every other call (fogpipe_new, _set,
+ * _parse_args, _apply, _run), on any context, is refused with
+ * FOGPIPE_ERROR and the message "...: called from a message handler",
+ * never a deadlock.  A handler must not wait for another thread's call
+ * into the library (that thread waits for the lock this call holds).
  *
  * ABI.  Symbols carry the version node FOGPIPE_0 (libfogpipe.so.0); only
  * the fogpipe_* names below are exported.  Structures given by pointer
@@ -65,7 +84,8 @@ typedef struct fogpipe fogpipe_t;
 
 /* A context with every option at its default.  *out is NULL on failure. */
 int fogpipe_new(fogpipe_t **out);
-/* Frees the context and everything it made (NULL is ignored). */
+/* Frees the context and everything it made (NULL, and a context already
+ * freed, are ignored; see Threads and Callbacks above). */
 void fogpipe_free(fogpipe_t *ctx);
 
 /* The message of the last failed call on `ctx` ("" if none): one line. */
@@ -80,7 +100,9 @@ const char *fogpipe_version(void);
 int fogpipe_set(fogpipe_t *ctx, const char *name, const char *value, const char *origin);
 
 /* Parse a command line (argv[0] is the program; presets first, the
- * command line wins), as the fogpipe program does. */
+ * command line wins), as the fogpipe program does.  argc strings, none
+ * NULL; the context keeps its own copy (for --stats), so the caller may
+ * free argv when the call returns. */
 int fogpipe_parse_args(fogpipe_t *ctx, int argc, char **argv);
 
 /* Messages: `kind` is one of FOGPIPE_MSG_*; `text` holds whole lines,
@@ -94,7 +116,8 @@ enum {
     FOGPIPE_MSG_PROGRESS
 };
 typedef void (*fogpipe_message_fn)(void *user, int kind, const char *text);
-/* NULL drops them (the default). */
+/* NULL drops them (the default).  The handler runs under the library's
+ * lock: it must not call the library except as Callbacks above says. */
 void fogpipe_set_message_handler(fogpipe_t *ctx, fogpipe_message_fn fn, void *user);
 
 /* One frame in memory.  Row 0 is the top row; pixels are scene-linear

@@ -1,6 +1,7 @@
 #include "options.h"
 #include "fp.h"
 #include "install.h"
+#include "textfile.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -346,21 +347,22 @@ int fp_options_load_preset(fp_params_t *p, const char *arg)
     free(p->io.preset);
     if (!(p->io.preset = strdup(path)))
         return fp_error("out of memory");
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return fp_usage_error("%s: cannot open preset (%s)", path, strerror(errno));
-    char line[4096];
-    int lineno = 0;
-    while (rc == FP_OK && fgets(line, sizeof line, f)) {
-        lineno++;
+    /* Bounded (src/textfile.h): --preset /dev/zero fails instead of
+     * reading forever. */
+    fp_text_t t;
+    if ((rc = fp_text_open(&t, path, "preset", 1)))
+        return rc;
+    char *line;
+    int got;
+    while (rc == FP_OK && (got = fp_text_next(&t, &line)) > 0) {
         char *s = trim(line);
         if (!*s || *s == '#')
             continue;
         char origin[1100];
-        snprintf(origin, sizeof origin, "%.1000s:%d", path, lineno);
+        snprintf(origin, sizeof origin, "%.1000s:%d", path, t.lineno);
         char *eq = strchr(s, '=');
         if (!eq) {
-            rc = fp_usage_error("%s: expected 'name = value', got '%s'", origin, s);
+            rc = fp_usage_error("%s: expected 'name = value', got '%.200s'", origin, s);
             break;
         }
         *eq = 0;
@@ -374,9 +376,9 @@ int fp_options_load_preset(fp_params_t *p, const char *arg)
         }
         rc = fp_options_apply(p, name, value, origin);
     }
-    if (rc == FP_OK && ferror(f))
-        rc = fp_error("%s: read error", path);
-    fclose(f);
+    if (rc == FP_OK && got < 0)
+        rc = t.rc;
+    fp_text_close(&t);
     return rc;
 }
 

@@ -411,9 +411,12 @@ static void test_chan_lens_warning(void **state)
     assert_int_equal(fp_camera_resolve(&p, &info, "t.exr", 1, &c), FP_OK);
     fp_msg_capture(prev);
     assert_non_null(buf.text);
-    assert_non_null(strstr(buf.text, "t.exr: frame 1: camera file"));
-    assert_non_null(strstr(buf.text, "gives a 30.00 mm lens, the header's Lens says 50.00 mm"));
-    assert_null(strchr(strchr(buf.text, '\n') + 1, '\n'));   /* one line */
+    /* The kept lines are buf.len bytes, not a C string. */
+    char text[1024];
+    snprintf(text, sizeof text, "%.*s", (int)buf.len, buf.text);
+    assert_non_null(strstr(text, "t.exr: frame 1: camera file"));
+    assert_non_null(strstr(text, "gives a 30.00 mm lens, the header's Lens says 50.00 mm"));
+    assert_null(strchr(strchr(text, '\n') + 1, '\n'));   /* one line */
     fp_msg_free(&buf);
     fp_options_free(&p);
     unlink(path);
@@ -438,6 +441,214 @@ static void test_sky(void **state)
     assert_true(fp_view_is_sky(&v, 0.001f, &s));   /* z = 1000 beyond far */
 }
 
+/* The direction of pixel (x, y)'s ray as the kernels compute it, in single
+ * precision from the packed view (kernels/fp_common.h). */
+static void float_dir(const float *view, int x, int y, double out[3])
+{
+    const float *m = view + 3, *h = view + 12;
+    float nx = ((float)x + view[23]) * view[21], ny = ((float)y + view[24]) * view[22];
+    float cw = h[6] * nx + h[7] * ny + h[8];
+    float cx = (h[0] * nx + h[1] * ny + h[2]) / cw, cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    float d[3], l = 0;
+    for (int i = 0; i < 3; i++) {
+        d[i] = m[i * 3] * cx + m[i * 3 + 1] * cy + m[i * 3 + 2];
+        l += d[i] * d[i];
+    }
+    for (int i = 0; i < 3; i++)
+        out[i] = d[i] / sqrtf(l);
+}
+
+/* The error message of resolving `info`'s camera ("" when it resolves),
+ * with the option `opt` set to `val` when not NULL. */
+static int resolve_msg(const fp_frame_info_t *info, const char *opt, const char *val,
+                       fp_camera_t *c, char *msg, size_t n)
+{
+    fp_params_t p;
+    fp_options_defaults(&p);
+    if (opt)
+        assert_int_equal(fp_options_apply(&p, opt, val, "test"), FP_OK);
+    fp_msgbuf_t buf;
+    memset(&buf, 0, sizeof buf);
+    fp_msgbuf_t *prev = fp_msg_capture(&buf);
+    int rc = fp_camera_resolve(&p, info, "t.exr", 4, c);
+    fp_msg_capture(prev);
+    snprintf(msg, n, "%.*s", (int)buf.len, buf.text ? buf.text : "");
+    fp_msg_free(&buf);
+    fp_options_free(&p);
+    return rc;
+}
+
+/* worldToCamera and worldToNDC scaled by any nonzero factor (1e300,
+ * 1e-300, -1) are the same projective camera: the same position, the same
+ * rays in double, and in the kernels' single precision finite and the
+ * same rays (before, 1e300 made the packed view inf and the frame NaN). */
+static void test_scaled_matrices(void **state)
+{
+    (void)state;
+    const double scales[] = { 1, 1e300, 1e-300, 1e150, 1e-150, -1, -1e-200 };
+    const int ns = (int)(sizeof scales / sizeof scales[0]);
+    for (int trial = 0; trial < 8; trial++) {
+        double C[3] = { 100 * urand() - 50, 20 * urand(), 100 * urand() - 50 };
+        double F[3] = { urand() - 0.5, 0.6 * (urand() - 0.5), urand() - 0.5 };
+        fp_frame_info_t ref;
+        header_camera(C, F, 20 + 80 * urand(), 96, 64, &ref);
+        fp_params_t p;
+        fp_options_defaults(&p);
+        for (int a = 0; a < ns; a++)
+            for (int b = 0; b < ns; b++) {
+                fp_frame_info_t info = ref;
+                for (int i = 0; i < 16; i++) {
+                    info.world_to_camera[i] *= scales[a];
+                    info.world_to_ndc[i] *= scales[b];
+                }
+                /* The same matrices as a fogpipe-camera text attribute. */
+                fp_frame_info_t text = info;
+                text.has_world_to_camera = text.has_world_to_ndc = 0;
+                snprintf(text.camera_text_attr, sizeof text.camera_text_attr, "Note");
+                int o = snprintf(text.camera_text, sizeof text.camera_text,
+                                 "fogpipe-camera 1 worldToCamera");
+                for (int i = 0; i < 32; i++)
+                    o += snprintf(text.camera_text + o, sizeof text.camera_text - (size_t)o,
+                                  "%s %.17g", i == 16 ? " worldToNDC" : "",
+                                  i < 16 ? info.world_to_camera[i] : info.world_to_ndc[i - 16]);
+                assert_true(o < (int)sizeof text.camera_text);
+                const fp_frame_info_t *src[2] = { &info, &text };
+                for (int k = 0; k < 2; k++) {
+                    fp_camera_t c;
+                    fp_view_t v;
+                    char msg[600];
+                    int rc = resolve_msg(src[k], NULL, NULL, &c, msg, sizeof msg);
+                    if (rc != FP_OK)
+                        printf("# scales %g, %g (%s): %s", scales[a], scales[b],
+                               k ? "text" : "header", msg);
+                    assert_int_equal(rc, FP_OK);
+                    assert_int_equal(fp_view_setup(&c, &p, src[k], &v), FP_OK);
+                    float view[FP_VIEW_FLOATS];
+                    fp_view_pack(&v, view);
+                    for (int i = 0; i < FP_VIEW_FLOATS; i++)
+                        if (i != 25 && !isfinite(view[i])) {   /* 25: --far, inf */
+                            printf("# scales %g, %g (%s): view[%d] = %g\n", scales[a],
+                                   scales[b], k ? "text" : "header", i, view[i]);
+                            fail();
+                        }
+                    for (int i = 0; i < 3; i++)
+                        assert_double_equal(c.origin[i], C[i], 1e-9 * (1 + fabs(C[i])));
+                    for (int s = 0; s < 12; s++) {
+                        int x = (int)(urand() * 96), y = (int)(urand() * 64);
+                        double dir[3], len, fdir[3], cam[4], P[3];
+                        fp_view_ray(&v, x, y, 10.0f, dir, &len);
+                        float_dir(view, x, y, fdir);
+                        for (int i = 0; i < 3; i++) {
+                            P[i] = C[i] + dir[i] * len;
+                            assert_double_equal(fdir[i], dir[i], 1e-5);
+                        }
+                        /* Planar depth 10 in the unscaled camera. */
+                        xform(ref.world_to_camera, P, cam);
+                        assert_double_equal(cam[2], 10, 1e-8);
+                    }
+                }
+            }
+        fp_options_free(&p);
+    }
+}
+
+/* Matrices that are no projection: refused with their name. */
+static void test_degenerate_matrices(void **state)
+{
+    (void)state;
+    static const double C[3] = { 1, 2, 3 }, F[3] = { 0, 0, 1 };
+    struct {
+        int which;   /* 0: worldToCamera, 1: worldToNDC */
+        int kind;
+        const char *want;
+    } cases[] = {
+        { 0, 0, "worldToCamera has a non-finite element" },
+        { 1, 0, "worldToNDC has a non-finite element" },
+        { 0, 1, "worldToCamera has a non-finite element" },
+        { 0, 2, "worldToCamera is all zeros" },
+        { 1, 2, "worldToNDC is all zeros" },
+        { 0, 3, "worldToCamera is not invertible" },
+        { 1, 3, "worldToNDC is not a usable projection" },
+        { 0, 4, "worldToCamera is not invertible" },
+        { 0, 6, "camera position/orientation from options is beyond single precision" },
+        { 0, 5, "worldToCamera puts the camera at infinity" },
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        fp_frame_info_t info;
+        header_camera(C, F, 40, 32, 24, &info);
+        double *m = cases[k].which ? info.world_to_ndc : info.world_to_camera;
+        switch (cases[k].kind) {
+        case 0: m[5] = NAN; break;
+        case 1: m[12] = INFINITY; break;
+        case 2: memset(m, 0, 16 * sizeof *m); break;
+        case 3:   /* rank 2: the second column a copy of the first */
+            for (int r = 0; r < 4; r++)
+                m[r * 4 + 1] = m[r * 4];
+            break;
+        case 4:   /* camera space 1e-300 of the world's, w = 1: not a projective scale */
+            for (int i = 0; i < 12; i++)
+                m[i] *= 1e-300;
+            break;
+        case 5: {   /* invertible, the camera's point at infinity (z and w swapped) */
+            const double swap[16] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0, 0, 1, 0 };
+            memcpy(m, swap, sizeof swap);
+            break;
+        }
+        case 6:   /* a position that single precision does not hold */
+            break;
+        }
+        fp_camera_t c;
+        char msg[600];
+        int far = cases[k].kind == 6;
+        assert_int_not_equal(resolve_msg(&info, far ? "camera-pos" : NULL, "1e35,0,0", &c, msg,
+                                         sizeof msg), FP_OK);
+        printf("# %s", msg);
+        assert_non_null(strstr(msg, "t.exr: frame 4: "));
+        assert_non_null(strstr(msg, cases[k].want));
+    }
+}
+
+/* A .chan line has exactly the 8 columns 'frame tx ty tz rx ry rz vfov':
+ * more or fewer, or a column that is not all number, is refused with the
+ * file and line (extra columns used to be ignored). */
+static void test_chan_columns(void **state)
+{
+    (void)state;
+    const char *good = "1 0 1 5 0 0 0 40\n";
+    struct {
+        const char *line2, *want;
+    } bad[] = {
+        { "2 0 1 5 0 0 0 40 7\n", ":2: 9 columns (expected 8: 'frame tx ty tz rx ry rz vfov')" },
+        { "2 0 1 5 0 0 0 40 0 0 0 0\n", ":2: 12 columns (expected 8" },
+        { "2 0 1 5 0 0 0\n", ":2: 7 columns (expected 8" },
+        { "2 0 1 5 0 0 0 40 # a note\n", ":2: column 9 '#' is not a number" },
+        { "2 0 1 5 0 0 0 40abc\n", ":2: column 8 '40abc' is not a number" },
+        { "2 0 1 5 0 0,5 0 40\n", ":2: column 6 '0,5' is not a number" },
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        char text[256];
+        snprintf(text, sizeof text, "%s%s", good, bad[k].line2);
+        fp_msgbuf_t buf;
+        memset(&buf, 0, sizeof buf);
+        fp_msgbuf_t *prev = fp_msg_capture(&buf);
+        fp_camera_t c;
+        int rc = chan_camera(text, NULL, 0, 40, 30, 1, &c);
+        fp_msg_capture(prev);
+        char msg[600];
+        snprintf(msg, sizeof msg, "%.*s", (int)buf.len, buf.text ? buf.text : "");
+        fp_msg_free(&buf);
+        printf("# %s", msg);
+        assert_int_not_equal(rc, FP_OK);
+        assert_non_null(strstr(msg, "fogpipe: /tmp/fp-chan-"));
+        assert_non_null(strstr(msg, bad[k].want));
+    }
+    /* Tabs, blanks around, CRLF and exponents are fine. */
+    fp_camera_t c;
+    assert_int_equal(chan_camera("  1\t0 1 5 0 0 0 4e1  \r\n2 0 1 5 0 0 0 40\n", NULL, 0, 40, 30,
+                                 1, &c), FP_OK);
+    assert_double_equal(c.origin[2], 5, 1e-12);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -450,6 +661,9 @@ int main(void)
         cmocka_unit_test(test_camera_text),
         cmocka_unit_test(test_chan_lens_warning),
         cmocka_unit_test(test_sky),
+        cmocka_unit_test(test_scaled_matrices),
+        cmocka_unit_test(test_degenerate_matrices),
+        cmocka_unit_test(test_chan_columns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

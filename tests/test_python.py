@@ -112,5 +112,140 @@ check("no camera raises (not a crash)", lambda: raises(
 check("float64 and non-contiguous arrays are accepted", lambda: fogpipe.apply(
     rgba.astype(np.float64)[:, ::-1], depth[:, ::-1], world_to_camera=w2c, world_to_ndc=w2n))
 
+
+# Integer, bool and other non-float arrays are refused (an 8-bit image is not
+# radiance 0-255): the message says what is expected.
+for dt in (np.uint8, np.uint16, np.int32, np.bool_, np.complex64):
+    check("rgba of dtype %s raises (expected linear float)" % np.dtype(dt).name,
+          lambda dt=dt: raises(apply_with(rgba=(rgba * 255).astype(dt)), "expected linear float"))
+check("integer depth raises", lambda: raises(apply_with(depth=np.zeros(depth.shape, np.int32)),
+                                             "depth has dtype int32 (expected linear float"))
+check("the message names the accepted dtypes", lambda: raises(
+    apply_with(rgba=rgba.astype(np.uint8)), "float32, float64 or float16"))
+check("float16 and big-endian float32 are accepted", lambda: (fogpipe.apply(
+    rgba.astype(np.float16), depth.astype(np.float16), world_to_camera=w2c, world_to_ndc=w2n),
+    fogpipe.apply(rgba.astype(">f4"), depth, world_to_camera=w2c, world_to_ndc=w2n)))
+
+
+class _Spy:
+    """libfogpipe's functions as the module calls them, with fogpipe_apply
+    held inside for a while: whether fogpipe_free ran while it was."""
+
+    def __init__(self, lib):
+        import threading
+        self.lib = lib
+        self.inside = threading.Event()
+        self.in_apply = 0
+        self.overlap = False
+        self.freed = set()
+
+    def __getattr__(self, name):
+        return getattr(self.lib, name)
+
+    def fogpipe_apply(self, h, *args):
+        import time
+        self.in_apply += 1
+        self.inside.set()
+        time.sleep(0.3)
+        try:
+            if h.value in self.freed:   # the old module's use after free: not run here
+                return 2
+            return self.lib.fogpipe_apply(h, *args)
+        finally:
+            self.in_apply -= 1
+
+    def fogpipe_free(self, h):
+        if self.in_apply:
+            self.overlap = True
+        self.freed.add(h.value)
+        return self.lib.fogpipe_free(h)
+
+
+def close_during_apply():
+    import threading
+    spy = _Spy(fogpipe._lib)
+    fogpipe._lib = spy
+    try:
+        ctx = fogpipe.Context(**opts)
+        got = {}
+
+        def worker():
+            try:
+                got["out"] = ctx.apply(rgba, depth, w2c, w2n)
+            except Exception as e:  # noqa: BLE001
+                got["error"] = e
+
+        t = threading.Thread(target=worker)
+        t.start()
+        assert spy.inside.wait(10), "apply never started"
+        ctx.close()
+        t.join()
+        assert not spy.overlap, "close() freed the context while apply was inside it"
+        assert "out" in got, "the apply in progress failed: %r" % (got.get("error"),)
+        assert np.isfinite(got["out"]).all()
+    finally:
+        fogpipe._lib = spy.lib
+
+
+check("Context.close() while another thread is in apply waits for it", close_during_apply)
+
+
+def closed_raises():
+    ctx = fogpipe.Context(**opts)
+    ctx.close()
+    ctx.close()
+    raises(lambda: ctx.apply(rgba, depth, w2c, w2n), "closed")
+    raises(lambda: ctx.set(density=0.1), "closed")
+    raises(lambda: ctx.run(), "closed")
+
+
+check("calls after close() raise (closed), a second close() does nothing", closed_raises)
+
+
+def close_race():
+    import random
+    import threading
+    rng = random.Random(22)
+    small = (rgba[:32, :48], depth[:32, :48])
+    for _ in range(20):
+        ctx = fogpipe.Context(**opts)
+        errors = []
+
+        def worker():
+            for _ in range(50):
+                try:
+                    out = ctx.apply(small[0], small[1], w2c, w2n)
+                    assert np.isfinite(out).all()
+                except fogpipe.Error as e:
+                    if "closed" not in str(e):
+                        errors.append(e)
+                    return
+
+        ts = [threading.Thread(target=worker) for _ in range(3)]
+        for t in ts:
+            t.start()
+        threading.Event().wait(rng.random() * 0.02)
+        ctx.close()
+        for t in ts:
+            t.join()
+        assert not errors, errors
+
+
+check("three threads applying while a fourth closes: each apply a frame or 'closed'", close_race)
+
+
+def scaled_camera():
+    ref = fogpipe.apply(rgba, depth, world_to_camera=w2c, world_to_ndc=w2n, **opts)
+    for a, b in ((1e300, 1), (1, 1e-300), (1e-300, 1e300)):
+        out = fogpipe.apply(rgba, depth, world_to_camera=w2c * a, world_to_ndc=w2n * b, **opts)
+        assert np.isfinite(out).all(), "non-finite pixels with scales %g, %g" % (a, b)
+        d = float(np.abs(out - ref).max())
+        assert d <= 1e-5, (a, b, d)
+
+
+check("the camera matrices times 1e300 or 1e-300: the same frame, finite", scaled_camera)
+check("a worldToNDC of NaN raises with its name", lambda: raises(
+    apply_with(world_to_ndc=np.full((4, 4), np.nan)), "worldToNDC has a non-finite element"))
+
 print("1..%d" % n)
 sys.exit(1 if failed else 0)

@@ -19,6 +19,7 @@ arrays or options raise fogpipe.Error with the library's message.
 import ctypes
 import ctypes.util
 import os
+import threading
 
 import numpy as np
 
@@ -56,6 +57,11 @@ def _load():
 _lib = _load()
 _c_float_p = ctypes.POINTER(ctypes.c_float)
 _c_double_p = ctypes.POINTER(ctypes.c_double)
+
+
+def _is_float(dtype):
+    """float16, float32 or float64, in either byte order."""
+    return dtype.kind == "f" and dtype.itemsize in (2, 4, 8)
 
 
 class _Frame(ctypes.Structure):
@@ -105,9 +111,18 @@ def _value(v):
 
 class Context:
     """A libfogpipe context: options set once, frames applied many times
-    (the device, programs and fogmap are kept between frames)."""
+    (the device, programs and fogmap are kept between frames).
+
+    Threads: calls on one context from several threads run one at a time
+    (the library's lock).  close() waits for the calls in progress on other
+    threads to return, then frees the context; calls made after it, or
+    that start while it waits, raise fogpipe.Error ("closed")."""
 
     def __init__(self, **options):
+        self._cv = threading.Condition()
+        self._busy = 0          # calls in progress with the handle
+        self._closing = False
+        self._h = None
         h = ctypes.c_void_p()
         if _lib.fogpipe_new(ctypes.byref(h)) != 0:
             raise MemoryError("fogpipe: cannot make a context")
@@ -115,9 +130,18 @@ class Context:
         self.set(**options)
 
     def close(self):
-        if self._h:
-            _lib.fogpipe_free(self._h)
-            self._h = None
+        """Free the context, after the calls in progress return."""
+        cv = getattr(self, "_cv", None)
+        if cv is None:          # __init__ did not get that far
+            return
+        with cv:
+            if self._h is None:
+                return
+            self._closing = True
+            while self._busy:
+                cv.wait()
+            h, self._h = self._h, None
+        _lib.fogpipe_free(h)
 
     def __del__(self):
         self.close()
@@ -128,9 +152,23 @@ class Context:
     def __exit__(self, *exc):
         self.close()
 
-    def _check(self, rc):
-        if rc != 0:
-            raise Error(_lib.fogpipe_error(self._h).decode(errors="replace"))
+    def _call(self, fn, *args):
+        """fn(handle, *args) with the handle held against close(); raises
+        with the library's message when it fails."""
+        with self._cv:
+            if self._h is None or self._closing:
+                raise Error("fogpipe: the Context is closed")
+            self._busy += 1
+            h = self._h
+        try:
+            rc = fn(h, *args)
+            if rc != 0:
+                raise Error(_lib.fogpipe_error(h).decode(errors="replace"))
+        finally:
+            with self._cv:
+                self._busy -= 1
+                if not self._busy:
+                    self._cv.notify_all()
 
     def set(self, **options):
         """Set options by the command line's long names, "-" written "_"."""
@@ -140,11 +178,12 @@ class Context:
             if value is None:
                 continue
             opt = name.replace("_", "-")
-            self._check(_lib.fogpipe_set(self._h, opt.encode(), _value(value).encode(),
-                                         ("fogpipe: %s=%r" % (name, value)).encode()))
+            self._call(_lib.fogpipe_set, opt.encode(), _value(value).encode(),
+                       ("fogpipe: %s=%r" % (name, value)).encode())
 
     def apply(self, rgba, depth, world_to_camera=None, world_to_ndc=None, frame=1, aov=False):
-        """Fog one frame: rgba HxWx4 and depth HxW (float32, or convertible),
+        """Fog one frame: rgba HxWx4 and depth HxW, scene-linear float
+        (float32; float64 and float16 are converted, other dtypes refused),
         the camera as OpenEXR's 4x4 worldToCamera and worldToNDC (row
         vectors), or from the options.  Returns the composite (HxWx4
         float32), and with aov=True also the fog layer (HxWx4: light, and
@@ -160,9 +199,13 @@ class Context:
                         "and width)" % (depth.shape, (h, w)))
         if h < 1 or w < 1:
             raise Error("fogpipe.apply: an empty image (%dx%d)" % (w, h))
+        # Pixels are scene-linear radiance: an integer image (8-bit sRGB,
+        # 16-bit) is not, and is refused rather than read as 0-255.
         for n, a in (("rgba", rgba), ("depth", depth)):
-            if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
-                raise Error("fogpipe.apply: %s has dtype %s (expected float32)" % (n, a.dtype))
+            if not _is_float(a.dtype):
+                raise Error("fogpipe.apply: %s has dtype %s (expected linear float: float32, "
+                            "float64 or float16; convert integer or display-referred images "
+                            "to scene-linear float first)" % (n, a.dtype))
         rgba = np.ascontiguousarray(rgba, dtype=np.float32)
         depth = np.ascontiguousarray(depth, dtype=np.float32)
         mats = []
@@ -185,15 +228,14 @@ class Context:
         out = np.empty((h, w, 4), dtype=np.float32)
         fog = np.empty((h, w, 4), dtype=np.float32) if aov else None
         tau = np.empty((h, w, 3), dtype=np.float32) if aov else None
-        self._check(_lib.fogpipe_apply(
-            self._h, ctypes.byref(fr), out.ctypes.data_as(_c_float_p),
-            fog.ctypes.data_as(_c_float_p) if aov else None,
-            tau.ctypes.data_as(_c_float_p) if aov else None))
+        self._call(_lib.fogpipe_apply, ctypes.byref(fr), out.ctypes.data_as(_c_float_p),
+                   fog.ctypes.data_as(_c_float_p) if aov else None,
+                   tau.ctypes.data_as(_c_float_p) if aov else None)
         return (out, fog, tau) if aov else out
 
     def run(self):
         """Run the options' files or streams (input, output, frames...)."""
-        self._check(_lib.fogpipe_run(self._h, 0))
+        self._call(_lib.fogpipe_run, 0)
 
 
 def apply(rgba, depth, world_to_camera=None, world_to_ndc=None, frame=1, aov=False, **options):
