@@ -165,8 +165,7 @@ static int freed_argv(void)
     snprintf(stats, sizeof stats, "api_freed_argv.json");
     unlink(out);
     unlink(stats);
-    const char *args[] = { "fogpipe", "-q", "--cpu", "-i", in, "-o", out, "--stats", stats,
-                           "--preview", "api_freed_argv.png" };
+    const char *args[] = { "fogpipe", "-q", "--cpu", "-i", in, "-o", out, "--stats", stats };
     int argc = (int)(sizeof args / sizeof args[0]);
     size_t page = (size_t)sysconf(_SC_PAGESIZE);
     size_t len = 0;

@@ -1,6 +1,6 @@
 // fogpipe fuzz harness: OpenImageIO as the outside judge (tests/fuzz/fuzz.py).
 //
-//   image_judge image FILE    OpenImageIO reads the whole image (every
+//   image_judge image FILE    OpenImageIO reads the image (the first
 //                             subimage's pixels as float) and reports no error
 //   image_judge finite IN OUT 1 if a pixel of OUT has a non-finite R, G, B or
 //                             A where IN's R, G, B and A are all finite
@@ -28,33 +28,30 @@ int judge_image(const char *path)
         std::printf("OpenImageIO cannot open it: %s\n", e.c_str());
         return 1;
     }
-    for (int sub = 0; in->seek_subimage(sub, 0); sub++) {
-        const OIIO::ImageSpec &spec = in->spec();
-        size_t n = (size_t)spec.width * spec.height * spec.depth * spec.nchannels;
-        // Never more than the harness's memory limit allows: a header this
-        // large is the size-limit suite's to judge, not this one's.
-        if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || n > (size_t)64 << 20) {
-            std::printf("OpenImageIO: subimage %d is %dx%dx%d (not read)\n", sub, spec.width,
-                        spec.height, spec.nchannels);
-            return spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0;
-        }
-        std::vector<float> px(n);
-        if (!in->read_image(sub, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()) ||
-            in->has_error()) {
-            std::string e = in->geterror();
-            for (char &c : e)
-                if (c == '\n')
-                    c = ' ';
-            std::printf("OpenImageIO cannot read subimage %d: %s\n", sub, e.c_str());
-            return 1;
-        }
+    // The first subimage, as fogpipe reads a fogmap: looking for a second
+    // one follows a TIFF's next-directory offset, whose corruption OpenImageIO
+    // reports as an error although the image itself reads (and its tools
+    // accept the file).
+    const OIIO::ImageSpec &spec = in->spec();
+    size_t n = (size_t)spec.width * spec.height * spec.depth * spec.nchannels;
+    // Never more than the harness's memory limit allows: a header this
+    // large is the size-limit suite's to judge, not this one's.
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || n > (size_t)64 << 20) {
+        std::printf("OpenImageIO: it is %dx%dx%d (not read)\n", spec.width, spec.height,
+                    spec.nchannels);
+        return spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0;
     }
-    if (in->has_error()) {
+    std::vector<float> px(n);
+    // An error with pixels is an error: a truncated TIFF or JPEG reads as
+    // pixels and an error (oiiotool prints nothing and exits 0; the library
+    // reports it, and fogpipe must not take the garbage).
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()) ||
+        in->has_error()) {
         std::string e = in->geterror();
         for (char &c : e)
             if (c == '\n')
                 c = ' ';
-        std::printf("OpenImageIO: %s\n", e.c_str());
+        std::printf("OpenImageIO cannot read it: %s\n", e.c_str());
         return 1;
     }
     return 0;
