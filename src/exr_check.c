@@ -25,25 +25,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static uint32_t rd_u32(const uint8_t *p)
-{
-    return (uint32_t) p[0] | (uint32_t) p[1] << 8 | (uint32_t) p[2] << 16 |
-           (uint32_t) p[3] << 24;
-}
-
-static int32_t rd_i32(const uint8_t *p)
-{
-    uint32_t u = rd_u32(p);
-    int32_t v;
-    memcpy(&v, &u, sizeof v);
-    return v;
-}
-
-static uint64_t rd_u64(const uint8_t *p)
-{
-    return (uint64_t) rd_u32(p) | (uint64_t) rd_u32(p + 4) << 32;
-}
-
 /* ------------------------------------------------------------ codec ratios */
 
 /* The most decoded bytes one packed byte can give, per compression (the
@@ -154,18 +135,18 @@ void fp_exr_hpart_take(fp_exr_hpart_t *sp, const char *name, const char *type,
 {
     if (strcmp(name, "dataWindow") == 0 && strcmp(type, "box2i") == 0 && size == 16) {
         for (int i = 0; i < 4; ++i)
-            sp->dw[i] = rd_i32(v + 4 * i);
+            sp->dw[i] = fp_exr_rd_i32(v + 4 * i);
         sp->has_dw = 1;
     } else if (strcmp(name, "compression") == 0 && size == 1) {
         sp->compression = v[0];
     } else if (strcmp(name, "tiles") == 0 && strcmp(type, "tiledesc") == 0 && size == 9) {
-        sp->tx = rd_u32(v);
-        sp->ty = rd_u32(v + 4);
+        sp->tx = fp_exr_rd_u32(v);
+        sp->ty = fp_exr_rd_u32(v + 4);
         sp->level_mode = v[8] & 0xf;
         sp->round_mode = (v[8] >> 4) & 0xf;
         sp->has_tiles = 1;
     } else if (strcmp(name, "chunkCount") == 0 && strcmp(type, "int") == 0 && size == 4) {
-        sp->chunk_count = rd_i32(v);
+        sp->chunk_count = fp_exr_rd_i32(v);
         sp->has_cc = 1;
     } else if (strcmp(name, "type") == 0 && strcmp(type, "string") == 0) {
         if ((size == 12 && memcmp(v, "deepscanline", 12) == 0) ||
@@ -218,8 +199,8 @@ static int walk_channels(const fp_exr_hpart_t *sp, chan_sum_t *cs, int64_t xa, i
         q = (size_t) ((const uint8_t *) z - b) + 1;
         if (end - q < 16)
             return -1;
-        uint32_t type = rd_u32(b + q);
-        int32_t xs = rd_i32(b + q + 8), ys = rd_i32(b + q + 12);
+        uint32_t type = fp_exr_rd_u32(b + q);
+        int32_t xs = fp_exr_rd_i32(b + q + 8), ys = fp_exr_rd_i32(b + q + 12);
         q += 16;
         if (type > EXR_PIXEL_FLOAT || xs < 1 || ys < 1)
             return -1; /* the library says what is wrong */
@@ -243,9 +224,9 @@ int fp_exr_check_image(const void *buf, size_t size, const char *where, long fra
     int nparts = 0, cap = 0;
     int rc = FP_OK;
 
-    if (size < 8 || rd_u32(b) != FP_EXR_MAGIC)
+    if (size < 8 || fp_exr_rd_u32(b) != FP_EXR_MAGIC)
         return FP_OK;
-    uint32_t version = rd_u32(b + 4);
+    uint32_t version = fp_exr_rd_u32(b + 4);
     int multipart = (version & 0x1000) != 0;
     if ((version & 0xff) != 2 || (version & 0x800))
         return FP_OK; /* the reader refuses deep data and other versions */
@@ -266,7 +247,7 @@ int fp_exr_check_image(const void *buf, size_t size, const char *where, long fra
             empty = 0;
             if (take_name(b, size, &pos, type) != 0 || size - pos < 4)
                 goto unframed;
-            uint32_t as = rd_u32(b + pos);
+            uint32_t as = fp_exr_rd_u32(b + pos);
             pos += 4;
             if (as > size - pos)
                 goto unframed;
@@ -375,30 +356,30 @@ int fp_exr_check_image(const void *buf, size_t size, const char *where, long fra
         int64_t ntx = sp->tiled ? (x1 - x0 + (int64_t) sp->tx - 1) / (int64_t) sp->tx : 1;
         int64_t r = max_ratio(sp->compression);
         for (int64_t i = 0; i < level0; ++i) {
-            uint64_t off = rd_u64(b + table + (size_t) i * 8);
+            uint64_t off = fp_exr_rd_u64(b + table + (size_t) i * 8);
             size_t lead = (multipart ? 4 : 0) + (sp->tiled ? 16 : 4);
             if (off < table_end || off >= size || size - off < lead + 4)
                 continue;
             const uint8_t *c = b + off;
-            if (multipart && rd_i32(c) != p)
+            if (multipart && fp_exr_rd_i32(c) != p)
                 continue;
             c += multipart ? 4 : 0;
             int64_t cx0 = x0, cx1 = x1, cy0, cy1;
             if (sp->tiled) {
                 int64_t tx = i % ntx, ty = i / ntx;
-                if (rd_i32(c) != tx || rd_i32(c + 4) != ty || rd_i32(c + 8) != 0 ||
-                    rd_i32(c + 12) != 0)
+                if (fp_exr_rd_i32(c) != tx || fp_exr_rd_i32(c + 4) != ty || fp_exr_rd_i32(c + 8) != 0 ||
+                    fp_exr_rd_i32(c + 12) != 0)
                     continue;
                 cx0 = x0 + tx * sp->tx;
                 cx1 = cx0 + sp->tx < x1 ? cx0 + sp->tx : x1;
                 cy0 = y0 + ty * sp->ty;
             } else {
                 cy0 = y0 + i * lpc;
-                if (rd_i32(c) != cy0)
+                if (fp_exr_rd_i32(c) != cy0)
                     continue;
             }
             cy1 = cy0 + lpc < y1 ? cy0 + lpc : y1;
-            int32_t packed = rd_i32(c + lead - (multipart ? 4 : 0));
+            int32_t packed = fp_exr_rd_i32(c + lead - (multipart ? 4 : 0));
             if (packed < 0)
                 continue;
             chan_sum_t cs;

@@ -20,6 +20,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 /* Sanity limits of the file's structure against corrupt headers; the
  * image's size (pixels, axis, channels, parts) is the image budget's
@@ -233,6 +234,27 @@ static inline int64_t sampled_count(int64_t lo, int64_t hi, int s)
 static inline size_t type_size(int type)
 {
     return type == EXR_PIXEL_HALF ? 2 : 4;
+}
+
+/* Little-endian integers of an EXR file's bytes (the header walks of
+ * exr_check.c and exr_stream.c). */
+static inline uint32_t fp_exr_rd_u32(const uint8_t *p)
+{
+    return (uint32_t) p[0] | (uint32_t) p[1] << 8 | (uint32_t) p[2] << 16 |
+           (uint32_t) p[3] << 24;
+}
+
+static inline int32_t fp_exr_rd_i32(const uint8_t *p)
+{
+    uint32_t u = fp_exr_rd_u32(p);
+    int32_t v;
+    memcpy(&v, &u, sizeof v);
+    return v;
+}
+
+static inline uint64_t fp_exr_rd_u64(const uint8_t *p)
+{
+    return (uint64_t) fp_exr_rd_u32(p) | (uint64_t) fp_exr_rd_u32(p + 4) << 32;
 }
 
 #endif

@@ -63,25 +63,6 @@ static int sr_need(sreader_t *r, uint64_t upto)
     return FP_OK;
 }
 
-static uint32_t rd_u32(const uint8_t *p)
-{
-    return (uint32_t) p[0] | (uint32_t) p[1] << 8 | (uint32_t) p[2] << 16 |
-           (uint32_t) p[3] << 24;
-}
-
-static int32_t rd_i32(const uint8_t *p)
-{
-    uint32_t u = rd_u32(p);
-    int32_t v;
-    memcpy(&v, &u, sizeof v);
-    return v;
-}
-
-static uint64_t rd_u64(const uint8_t *p)
-{
-    return (uint64_t) rd_u32(p) | (uint64_t) rd_u32(p + 4) << 32;
-}
-
 /* Read a NUL-terminated name at *pos: at most FP_EXR_LONG_NAME characters,
  * whether or not the version field has the long-names flag (the library
  * holds the file to its flag when it parses the frame). */
@@ -132,7 +113,7 @@ static int sr_header(sreader_t *r, size_t *pos, fp_exr_hpart_t *sp, int *empty)
         memcpy(type, ty, tl + 1);
         if (sr_need(r, *pos + 4) != FP_OK)
             return FP_ERR;
-        int32_t size = rd_i32(r->buf + *pos);
+        int32_t size = fp_exr_rd_i32(r->buf + *pos);
         *pos += 4;
         if (size < 0 || size > FP_EXR_MAX_ATTR_SIZE)
             return fp_error("%s: frame %ld: corrupt EXR header (attribute %s has "
@@ -232,14 +213,14 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
     r.section = "magic number";
     if (sr_need(&r, 4) != FP_OK)
         goto done;
-    if (rd_u32(r.buf) != FP_EXR_MAGIC) {
+    if (fp_exr_rd_u32(r.buf) != FP_EXR_MAGIC) {
         fp_error("%s: frame %ld: not an EXR file (bad magic number)", r.where, index);
         goto done;
     }
     r.section = "version field";
     if (sr_need(&r, 8) != FP_OK)
         goto done;
-    uint32_t version = rd_u32(r.buf + 4);
+    uint32_t version = fp_exr_rd_u32(r.buf + 4);
     int multipart = (version & 0x1000) != 0;
     if ((version & 0xff) != 2) {
         fp_error("%s: frame %ld: unsupported EXR version %u (expected 2)", r.where,
@@ -319,7 +300,7 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
     size_t table_end = pos + (size_t) total * 8;
     uint64_t last = 0;
     for (int64_t i = 0; i < total; ++i) {
-        uint64_t off = rd_u64(r.buf + pos + (size_t) i * 8);
+        uint64_t off = fp_exr_rd_u64(r.buf + pos + (size_t) i * 8);
         if (off != 0 && (off < table_end || off > FP_EXR_MAX_FILE)) {
             fp_error("%s: frame %ld: corrupt EXR offset table (chunk %lld at %llu)",
                      r.where, index, (long long) i, (unsigned long long) off);
@@ -342,7 +323,7 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
     if (multipart) {
         if (sr_need(&r, at + 4) != FP_OK)
             goto done;
-        part = rd_i32(r.buf + at);
+        part = fp_exr_rd_i32(r.buf + at);
         at += 4;
         if (part < 0 || part >= nparts) {
             fp_error("%s: frame %ld: corrupt EXR chunk (part number %d of %d)",
@@ -354,7 +335,7 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
     uint64_t lead = parts[part].tiled ? 16 : 4;
     if (sr_need(&r, at + lead + 4) != FP_OK)
         goto done;
-    int32_t dsize = rd_i32(r.buf + at + lead);
+    int32_t dsize = fp_exr_rd_i32(r.buf + at + lead);
     if (dsize < 0) {
         fp_error("%s: frame %ld: corrupt EXR chunk (size %d)", r.where, index,
                  (int) dsize);
