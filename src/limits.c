@@ -1,5 +1,5 @@
 /* fogpipe: the one budget for every image fogpipe reads (src/limits.h). */
-#include "limits.h"
+#include "fp_limits.h"
 
 #include "fp.h"
 
