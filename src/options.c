@@ -388,7 +388,9 @@ int fp_options_load_preset(fp_params_t *p, const char *arg)
     return rc;
 }
 
-/* Split "--name=value" / "--name value" / "-x value". */
+/* Split "--name=value" / "--name value" / "-x value" / "-xVALUE", and
+ * bundled short options as getopt does: "-qv" is -q -v, and an option that
+ * takes a value ends the bundle ("-qo out.exr", "-qoout.exr"). */
 int fp_options_parse(int argc, char **argv, fp_params_t *p)
 {
     int rc;
@@ -404,6 +406,16 @@ int fp_options_parse(int argc, char **argv, fp_params_t *p)
             file = argv[++i];
         } else if (strncmp(a, "--preset=", 9) == 0) {
             file = a + 9;
+        } else if (a[0] == '-' && a[1] != '-') {
+            /* A bundle's value is its own; skip it as the loop below does. */
+            for (const char *c = a + 1; *c; c++) {
+                const fp_option_t *o = find_short(*c);
+                if (!o || o->type == FP_OPT_FLAG)
+                    continue;
+                if (!c[1])
+                    i++;
+                break;
+            }
         }
         if (file && (rc = fp_options_load_preset(p, file)))
             return rc;
@@ -427,10 +439,24 @@ int fp_options_parse(int argc, char **argv, fp_params_t *p)
                 return fp_usage_error("command line: unknown option --%s (see fogpipe --help)", name);
             if (eq)
                 value = eq + 1;
-        } else if (a[0] == '-' && a[1] && a[2] == 0) {
-            o = find_short(a[1]);
-            if (!o)
-                return fp_usage_error("command line: unknown option %s (see fogpipe --help)", a);
+        } else if (a[0] == '-' && a[1]) {
+            /* The bundle's flags before the last option are applied here. */
+            const char *c = a + 1;
+            for (;; c++) {
+                o = find_short(*c);
+                if (!o)
+                    return fp_usage_error("command line: unknown option -%c%s%s (see fogpipe --help)",
+                                          *c, a[2] ? " in " : "", a[2] ? a : "");
+                if (o->type != FP_OPT_FLAG) {
+                    if (c[1])
+                        value = c + 1;
+                    break;
+                }
+                if (!c[1])
+                    break;
+                if ((rc = fp_options_apply(p, o->name, NULL, "command line")))
+                    return rc;
+            }
         } else {
             return fp_usage_error("command line: unexpected argument '%s' (options start with --; "
                                   "use -i/-o for files)", a);
