@@ -164,7 +164,7 @@ const fp_option_t fp_scatter_options[] = {
       set_light, 0 },
     { "shadow-map", 0, FP_OPT_STRING, LI(shadow_map), 0, 0, NULL, 0, 0, NULL, "PATTERN",
       "the sun's depth map per frame: orthographic, camera-space depth Z, worldToCamera and "
-      "worldToNDC in its header (as fp-scene writes shadow.####.exr)", NULL, 0 },
+      "worldToNDC in its header (as fogpipe-scene writes shadow.####.exr)", NULL, 0 },
     { "shadows", 0, FP_OPT_ENUM, LI(shadows), 0, 0, "auto", 0, 0, "auto|none|map|screen",
       "auto|none|map|screen",
       "the sun's shadows in the fog: from --shadow-map (auto: when given), by marching "
@@ -358,7 +358,7 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     if (!info->has_world_to_ndc || !info->has_world_to_camera) {
         fp_frame_free(f);
         return fp_error("%s: frame %ld: shadow map without worldToCamera and worldToNDC in its "
-                        "header (expected the sun camera's matrices, as fp-scene writes them)",
+                        "header (expected the sun camera's matrices, as fogpipe-scene writes them)",
                         path, frame);
     }
     size_t n = (size_t)info->width * info->height;

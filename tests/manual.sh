@@ -55,6 +55,15 @@ ZSH_C="$P/share/zsh/site-functions/_fogpipe"
 check "installed: share/man/man1/fogpipe.1, bash-completion/completions/fogpipe, zsh/site-functions/_fogpipe" \
   test -s "$MAN" -a -s "$BASH_C" -a -s "$ZSH_C"
 
+# What the README says comes with fogpipe: the sample scene maker under the
+# name it is installed as, the farm scripts.
+check "installed: bin/fogpipe-scene (its usage under that name), share/fogpipe/farm/{parallel,slurm-array}.sh executable" sh -c '
+  "$1/bin/fogpipe-scene" --help | grep -q "^usage: fogpipe-scene -o DIR" &&
+  test -x "$1/share/fogpipe/farm/parallel.sh" -a -x "$1/share/fogpipe/farm/slurm-array.sh"' sh "$P"
+check "no message names fp-scene, which is not installed" sh -c '
+  ! COLUMNS=500 "$1" --help | grep fp-scene && ! "$2/bin/fogpipe-scene" --help | grep fp-scene &&
+  ! "$2/bin/fogpipe-scene" --width 0 2>&1 | grep fp-scene' sh "$FOGPIPE" "$P"
+
 # man -l formats it (man-db), groff finds nothing to warn about.
 if command -v man >/dev/null 2>&1; then
   check "man -l fogpipe.1 formats the page" sh -c '

@@ -1020,7 +1020,7 @@ static void test_self_shadow_grid(void **state)
 
 /* ------------------------------------------------------------ the sample scene */
 
-/* samples/fp-scene, run once into a temporary directory: a 64x48 frame 1
+/* samples/fogpipe-scene, run once into a temporary directory: a 64x48 frame 1
  * (scene.0001.exr), its sun map (shadow.0001.exr, 512 texels) and the
  * fogmap.  $FP_SCENE (make check) or next to the test binary. */
 static const char *test_argv0 = "tests/test_scatter";
@@ -1036,13 +1036,13 @@ static const char *sample_scene(void)
     if (env && *env) {
         snprintf(gen, sizeof gen, "%s", env);
     } else {
-        /* tests/test_scatter -> samples/fp-scene (an in-tree or VPATH build). */
+        /* tests/test_scatter -> samples/fogpipe-scene (an in-tree or VPATH build). */
         snprintf(gen, sizeof gen, "%s", test_argv0);
         char *slash = strrchr(gen, '/');
         if (slash)
-            snprintf(slash, gen + sizeof gen - slash, "/../samples/fp-scene");
+            snprintf(slash, gen + sizeof gen - slash, "/../samples/fogpipe-scene");
         else
-            snprintf(gen, sizeof gen, "../samples/fp-scene");
+            snprintf(gen, sizeof gen, "../samples/fogpipe-scene");
     }
     if (access(gen, X_OK) != 0) {
         print_message("no sample scene generator at %s (set FP_SCENE)\n", gen);
