@@ -60,6 +60,8 @@ check "installed: share/man/man1/fogpipe.1, bash-completion/completions/fogpipe,
 check "installed: bin/fogpipe-scene (its usage under that name), share/fogpipe/farm/{parallel,slurm-array}.sh executable" sh -c '
   "$1/bin/fogpipe-scene" --help | grep -q "^usage: fogpipe-scene -o DIR" &&
   test -x "$1/share/fogpipe/farm/parallel.sh" -a -x "$1/share/fogpipe/farm/slurm-array.sh"' sh "$P"
+check "installed: share/doc/fogpipe/LICENSE (BSD-3-Clause) and NEWS" sh -c '
+  grep -q "BSD 3-Clause License" "$1/share/doc/fogpipe/LICENSE" && test -s "$1/share/doc/fogpipe/NEWS"' sh "$P"
 check "no message names fp-scene, which is not installed" sh -c '
   ! COLUMNS=500 "$1" --help | grep fp-scene && ! "$2/bin/fogpipe-scene" --help | grep fp-scene &&
   ! "$2/bin/fogpipe-scene" --width 0 2>&1 | grep fp-scene' sh "$FOGPIPE" "$P"
