@@ -125,7 +125,7 @@ typedef struct fp_light_params_t {
     int shadows;          /* FP_SHADOWS_* */
     double shadow_bias;   /* scene units, added to each texel's own */
     int shadow_filter;    /* edge ramps, texels each side (0: hard) */
-    double screen_shadow[3]; /* steps, distance, thickness */
+    double screen_shadow[2]; /* distance, thickness */
     int self_shadow;      /* FP_SELF_SHADOW_* */
     double self_shadow_grid[3];
     int self_shadow_cascades;
