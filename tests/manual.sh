@@ -66,6 +66,21 @@ check "no message names fp-scene, which is not installed" sh -c '
   ! COLUMNS=500 "$1" --help | grep fp-scene && ! "$2/bin/fogpipe-scene" --help | grep fp-scene &&
   ! "$2/bin/fogpipe-scene" --width 0 2>&1 | grep fp-scene' sh "$FOGPIPE" "$P"
 
+# The Python module of a custom prefix: where the README says, imported
+# with PYTHONPATH set to it (the library from the DESTDIR tree).
+PY=${PYTHON3:-python3}
+if command -v "$PY" >/dev/null 2>&1; then
+  pyver=$("$PY" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+  check "prefix=/opt/fp: PYTHONPATH=/opt/fp/lib/python$pyver/dist-packages imports fogpipe (README)" sh -c '
+    FOGPIPE_LIBRARY="$2/lib/libfogpipe.so.0" PYTHONPATH="$2/lib/python$3/dist-packages" \
+      "$1" -c "import fogpipe, sys; sys.exit(not fogpipe.__file__.startswith(\"$2/lib/python$3/dist-packages/fogpipe/\"))"' \
+    sh "$PY" "$P" "$pyver"
+  check "README names PREFIX/lib/python3.X/dist-packages and PYTHONPATH" sh -c '
+    grep -q "PREFIX/lib/python3.X/dist-packages" "$1" && grep -q "export PYTHONPATH=" "$1"' sh "$FP_SRCDIR/README.md"
+else
+  skip "the Python module (no python3)"
+fi
+
 # man -l formats it (man-db), groff finds nothing to warn about.
 if command -v man >/dev/null 2>&1; then
   check "man -l fogpipe.1 formats the page" sh -c '
