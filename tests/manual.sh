@@ -57,9 +57,10 @@ check "installed: share/man/man1/fogpipe.1, bash-completion/completions/fogpipe,
 
 # What the README says comes with fogpipe: the sample scene maker under the
 # name it is installed as, the farm scripts.
-check "installed: bin/fogpipe-scene (its usage under that name), share/fogpipe/farm/{parallel,slurm-array}.sh executable" sh -c '
+check "installed: bin/fogpipe-scene (its usage under that name), share/fogpipe/farm/{parallel,slurm-array}.sh, share/fogpipe/golden/fogpipe-golden-check executable" sh -c '
   "$1/bin/fogpipe-scene" --help | grep -q "^usage: fogpipe-scene -o DIR" &&
-  test -x "$1/share/fogpipe/farm/parallel.sh" -a -x "$1/share/fogpipe/farm/slurm-array.sh"' sh "$P"
+  test -x "$1/share/fogpipe/farm/parallel.sh" -a -x "$1/share/fogpipe/farm/slurm-array.sh" -a \
+    -x "$1/share/fogpipe/golden/fogpipe-golden-check"' sh "$P"
 check "installed: share/doc/fogpipe/LICENSE (BSD-3-Clause) and NEWS" sh -c '
   grep -q "BSD 3-Clause License" "$1/share/doc/fogpipe/LICENSE" && test -s "$1/share/doc/fogpipe/NEWS"' sh "$P"
 check "no message names fp-scene, which is not installed" sh -c '
