@@ -93,6 +93,43 @@ static int parse_reals(const char *s, size_t len, double *out, int n)
 
 /* --light point:X,Y,Z:R,G,B:I
  * --light spot:X,Y,Z:R,G,B:I:DX,DY,DZ:INNER,OUTER  (cone half-angles, degrees) */
+/* --screen-shadow DIST,THICK.  The old STEPS,DIST,THICK still runs, with a
+ * warning: the walk over the depth buffer is exact, so STEPS changed
+ * nothing, and command lines, presets and farm scripts that pinned it keep
+ * their frames. */
+static int set_screen_shadow(fp_params_t *p, const fp_option_t *o, const char *value)
+{
+    double v[3];
+    int n = 0, bad = 0;
+    const char *s = value;
+    for (;;) {
+        char *end;
+        v[n] = strtod(s, &end);
+        if (end == s || !(v[n] >= o->min && v[n] <= o->max)) {
+            bad = 1;
+            break;
+        }
+        n++;
+        s = end;
+        if (*s != ',')
+            break;
+        if (n == 3) {
+            bad = 1;
+            break;
+        }
+        s++;
+    }
+    if (bad || *s || n < 2)
+        return fp_usage_error("--%s: expected DIST,THICK (two numbers in %g..%g), got '%s'",
+                              o->name, o->min, o->max, value);
+    if (n == 3)
+        fp_warn("--%s %s: STEPS is no longer used (the walk over the depth buffer is "
+                "exact); give DIST,THICK: %g,%g", o->name, value, v[1], v[2]);
+    p->light.screen_shadow[0] = v[n - 2];
+    p->light.screen_shadow[1] = v[n - 1];
+    return FP_OK;
+}
+
 static int set_light(fp_params_t *p, const fp_option_t *o, const char *value)
 {
     fp_light_params_t *l = &p->light;
@@ -164,7 +201,7 @@ const fp_option_t fp_scatter_options[] = {
       set_light, 0 },
     { "shadow-map", 0, FP_OPT_STRING, LI(shadow_map), 0, 0, NULL, 0, 0, NULL, "PATTERN",
       "the sun's depth map per frame: orthographic, camera-space depth Z, worldToCamera and "
-      "worldToNDC in its header (as fp-scene writes shadow.####.exr)", NULL, 0 },
+      "worldToNDC in its header (as fogpipe-scene writes shadow.####.exr)", NULL, 0 },
     { "shadows", 0, FP_OPT_ENUM, LI(shadows), 0, 0, "auto", 0, 0, "auto|none|map|screen",
       "auto|none|map|screen",
       "the sun's shadows in the fog: from --shadow-map (auto: when given), by marching "
@@ -176,11 +213,11 @@ const fp_option_t fp_scatter_options[] = {
       "soften the shadows' edges: along each view ray the sun's visibility ramps over R texels "
       "each side of an edge, at most half of the stretch on either side (0: hard, exact for the "
       "map)", NULL, 0 },
-    { "screen-shadow", 0, FP_OPT_VEC, LI(screen_shadow), 3, 3, "32,20,1", 0, 1e6, NULL,
-      "STEPS,DIST,THICK",
-      "--shadows screen: STEPS is no longer used (the walk over the depth buffer is exact; "
-      "kept so that command lines run), how far toward the sun (scene units), and the "
-      "thickness assumed behind what the depth buffer shows", NULL, 0 },
+    { "screen-shadow", 0, FP_OPT_VEC, LI(screen_shadow), 2, 2, "20,1", 0, 1e6, NULL,
+      "DIST,THICK",
+      "--shadows screen: how far toward the sun the depth buffer is searched for what "
+      "shadows a point (scene units), and the thickness assumed behind what it shows "
+      "(the old STEPS,DIST,THICK still runs, with a warning)", set_screen_shadow, 0 },
     { "self-shadow", 0, FP_OPT_ENUM, LI(self_shadow), 0, 0, "auto", 0, 0, "off|exact|map|auto",
       "off|exact|map|auto",
       "fog shadowing itself: sunlight reaching a point is attenuated by the fog between it "
@@ -244,8 +281,6 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
         return fp_usage_error("--shadows map: needs --shadow-map PATTERN");
     if (l->shadow_map && !sun)
         return fp_usage_error("--shadow-map: the shadows are the sun's; give --sun too");
-    if (shadows == FP_SHADOWS_WITH_SCREEN && !(l->screen_shadow[0] >= 1))
-        return fp_usage_error("--screen-shadow: expected at least one step");
     lt[FP_LT_ALBEDO] = l->albedo;
     memcpy(lt + FP_LT_AMB, p->fog.color, 3 * sizeof(double));
     lt[FP_LT_SUN_ON] = sun;
@@ -275,9 +310,8 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
     lt[FP_LT_INTERLEAVE + 1] = floor(l->interleave[1]);
     lt[FP_LT_NLIGHTS] = l->num_lights;
     lt[FP_LT_SM_RADIUS] = l->shadow_filter;
-    lt[FP_LT_SS_STEPS] = l->screen_shadow[0];
-    lt[FP_LT_SS_DIST] = l->screen_shadow[1];
-    lt[FP_LT_SS_THICK] = l->screen_shadow[2];
+    lt[FP_LT_SS_DIST] = l->screen_shadow[0];
+    lt[FP_LT_SS_THICK] = l->screen_shadow[1];
     for (int i = 0; i < 3; i++)
         lt[FP_LT_GRID_N + i] = floor(l->self_shadow_grid[i]);
     lt[FP_LT_GRID_K] = l->self_shadow_cascades;
@@ -358,7 +392,7 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     if (!info->has_world_to_ndc || !info->has_world_to_camera) {
         fp_frame_free(f);
         return fp_error("%s: frame %ld: shadow map without worldToCamera and worldToNDC in its "
-                        "header (expected the sun camera's matrices, as fp-scene writes them)",
+                        "header (expected the sun camera's matrices, as fogpipe-scene writes them)",
                         path, frame);
     }
     size_t n = (size_t)info->width * info->height;

@@ -35,7 +35,7 @@
 #define FP_LT_SM_Z 37        /* 4: fog point -> the map camera's z: dot(p, c) + c[3] */
 #define FP_LT_SM_BIAS 41     /* the user's depth bias, scene units (in the map's zb already) */
 #define FP_LT_SM_RADIUS 42   /* --shadow-filter: ramps R texels each side of a shadow's edge */
-#define FP_LT_SS_STEPS 43    /* screen-space shadows: steps toward the sun */
+#define FP_LT_SS_STEPS 43    /* unused (was --screen-shadow STEPS; the walk is exact) */
 #define FP_LT_SS_DIST 44     /* how far toward the sun, scene units */
 #define FP_LT_SS_THICK 45    /* assumed thickness of what the depth buffer shows */
 #define FP_LT_SS_M 46        /* 9: fog vector -> camera vector (inverse of view m) */

@@ -1,4 +1,5 @@
-/* fp-scene: the sample scene generator of fogpipe.
+/* fogpipe-scene: the sample scene generator of fogpipe (installed with it:
+ * a test scene and sun shadow map to try fogpipe on).
  *
  * An analytic ray tracer (ground plane with a checker, boxes, a wall with
  * gaps, spheres, a low sun with hard ray-traced shadows and sky ambient)
@@ -612,7 +613,7 @@ static int write_exr(const char *path, long frame, int w, int h, const out_chan_
     char at[32] = "";
     if (frame >= 0)
         snprintf(at, sizeof at, " frame %ld:", frame);
-    fprintf(stderr, "fp-scene: %s:%s cannot write (%s)\n", path, at, why);
+    fprintf(stderr, "fogpipe-scene: %s:%s cannot write (%s)\n", path, at, why);
     unlink(tmp);
     return 1;
 }
@@ -664,7 +665,7 @@ static int bad_option(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "fp-scene: ");
+    fprintf(stderr, "fogpipe-scene: ");
     vfprintf(stderr, fmt, ap);
     fprintf(stderr, " (see --help)\n");
     va_end(ap);
@@ -737,7 +738,7 @@ static int set_option(const fp_scene_opt_t *o, const char *v, fp_scene_args_t *a
 
 static void print_help(void)
 {
-    printf("usage: fp-scene -o DIR [options]\n"
+    printf("usage: fogpipe-scene -o DIR [options]\n"
            "Writes the fogpipe sample scene: DIR/scene.####.exr (color + planar depth Z,\n"
            "worldToCamera, worldToNDC), DIR/shadow.####.exr (the sun's orthographic depth\n"
            "map) and DIR/fogmap.exr.\n");
@@ -817,7 +818,7 @@ static int make_dir(const char *dir)
         if (c == '/' || c == 0) {
             *p = 0;
             if (mkdir(path, 0777) != 0 && errno != EEXIST) {
-                fprintf(stderr, "fp-scene: %s: cannot create directory (%s)\n", path,
+                fprintf(stderr, "fogpipe-scene: %s: cannot create directory (%s)\n", path,
                         strerror(errno));
                 return 1;
             }
@@ -827,7 +828,7 @@ static int make_dir(const char *dir)
             break;
     }
     if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode)) {
-        fprintf(stderr, "fp-scene: %s: not a directory\n", dir);
+        fprintf(stderr, "fogpipe-scene: %s: not a directory\n", dir);
         return 1;
     }
     return 0;
@@ -854,7 +855,7 @@ int main(int argc, char **argv)
     for (int c = 0; c < 4; c++)
         nomem |= !(rgba[c] = malloc(n * sizeof(float)));
     if (nomem) {
-        fprintf(stderr, "fp-scene: out of memory for %dx%d frames and a %dx%d sun map\n", w, h,
+        fprintf(stderr, "fogpipe-scene: out of memory for %dx%d frames and a %dx%d sun map\n", w, h,
                 sn, sn);
         rc = 1;
         goto done;
@@ -915,7 +916,7 @@ int main(int argc, char **argv)
         double texel = sn ? sc.ww / sn : 0;
         double iou = check.shadow_any ? (double)check.shadow_both / check.shadow_any : 1;
         int judged = sn && texel <= FP_CHECK_TEXEL;
-        printf("fp-scene: check: frames %ld-%ld, %ld hit points reprojected: max %.3g px from "
+        printf("fogpipe-scene: check: frames %ld-%ld, %ld hit points reprojected: max %.3g px from "
                "the pixel center, max depth error %.3g (relative)",
                args.frames[0], args.frames[1], check.points, check.max_px, check.max_depth);
         if (judged)
@@ -928,7 +929,7 @@ int main(int argc, char **argv)
             printf("; no sun map\n");
         if (check.max_px > FP_CHECK_PX || check.max_depth > FP_CHECK_DEPTH ||
             (judged && iou < FP_CHECK_SUN)) {
-            fprintf(stderr, "fp-scene: check failed: expected at most %g px, a relative depth "
+            fprintf(stderr, "fogpipe-scene: check failed: expected at most %g px, a relative depth "
                             "error of at most %g and a sun map overlap of at least %g%%\n",
                     FP_CHECK_PX, FP_CHECK_DEPTH, 100 * FP_CHECK_SUN);
             rc = 1;

@@ -147,7 +147,7 @@ int fogpipe_apply(fogpipe_t *ctx, const fogpipe_frame_t *in, float *out_rgba,
 
 /* Files and streams: run the options' -i/-o (and --frames, ...) as the
  * command line does, or the command asked for (--help, --version,
- * --list-devices, --list-color-spaces) onto stdout.  FOGPIPE_RUN_SIGNALS
+ * --list-devices, --list-spaces) onto stdout.  FOGPIPE_RUN_SIGNALS
  * catches SIGINT and SIGTERM to stop cleanly (the program's behaviour: a
  * second signal ends the process); a host leaves it out. */
 enum { FOGPIPE_RUN_SIGNALS = 1 };

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 #include "config.h"
@@ -382,7 +383,9 @@ int fp_options_load_preset(fp_params_t *p, const char *arg)
     return rc;
 }
 
-/* Split "--name=value" / "--name value" / "-x value". */
+/* Split "--name=value" / "--name value" / "-x value" / "-xVALUE", and
+ * bundled short options as getopt does: "-qv" is -q -v, and an option that
+ * takes a value ends the bundle ("-qo out.exr", "-qoout.exr"). */
 int fp_options_parse(int argc, char **argv, fp_params_t *p)
 {
     int rc;
@@ -398,6 +401,16 @@ int fp_options_parse(int argc, char **argv, fp_params_t *p)
             file = argv[++i];
         } else if (strncmp(a, "--preset=", 9) == 0) {
             file = a + 9;
+        } else if (a[0] == '-' && a[1] != '-') {
+            /* A bundle's value is its own; skip it as the loop below does. */
+            for (const char *c = a + 1; *c; c++) {
+                const fp_option_t *o = find_short(*c);
+                if (!o || o->type == FP_OPT_FLAG)
+                    continue;
+                if (!c[1])
+                    i++;
+                break;
+            }
         }
         if (file && (rc = fp_options_load_preset(p, file)))
             return rc;
@@ -421,10 +434,24 @@ int fp_options_parse(int argc, char **argv, fp_params_t *p)
                 return fp_usage_error("command line: unknown option --%s (see fogpipe --help)", name);
             if (eq)
                 value = eq + 1;
-        } else if (a[0] == '-' && a[1] && a[2] == 0) {
-            o = find_short(a[1]);
-            if (!o)
-                return fp_usage_error("command line: unknown option %s (see fogpipe --help)", a);
+        } else if (a[0] == '-' && a[1]) {
+            /* The bundle's flags before the last option are applied here. */
+            const char *c = a + 1;
+            for (;; c++) {
+                o = find_short(*c);
+                if (!o)
+                    return fp_usage_error("command line: unknown option -%c%s%s (see fogpipe --help)",
+                                          *c, a[2] ? " in " : "", a[2] ? a : "");
+                if (o->type != FP_OPT_FLAG) {
+                    if (c[1])
+                        value = c + 1;
+                    break;
+                }
+                if (!c[1])
+                    break;
+                if ((rc = fp_options_apply(p, o->name, NULL, "command line")))
+                    return rc;
+            }
         } else {
             return fp_usage_error("command line: unexpected argument '%s' (options start with --; "
                                   "use -i/-o for files)", a);
@@ -467,15 +494,87 @@ static void md_print(FILE *out, const char *s)
     }
 }
 
+/* The width --help wraps to: $COLUMNS when set (as GNU programs and
+ * Python's argparse take it), else the terminal's when OUT is one, else 80.
+ * At least 40, so the options keep a column. */
+static int help_width(FILE *out)
+{
+    int w = 0;
+    const char *env = getenv("COLUMNS");
+    if (env && *env) {
+        char *end;
+        long v = strtol(env, &end, 10);
+        if (!*end && v > 0 && v < 10000)
+            w = (int)v;
+    }
+#ifdef TIOCGWINSZ
+    struct winsize ws;
+    if (!w && isatty(fileno(out)) && ioctl(fileno(out), TIOCGWINSZ, &ws) == 0 && ws.ws_col > 0)
+        w = ws.ws_col;
+#endif
+    if (!w)
+        w = 80;
+    return w < 40 ? 40 : w;
+}
+
+/* Write TEXT from column COL (the cursor is there), wrapped at WIDTH, the
+ * following lines indented by INDENT; a word longer than a line is cut.
+ * Ends the line. */
+static void wrap(FILE *out, const char *text, int col, int indent, int width)
+{
+    const char *s = text;
+    int fresh = 1;   /* nothing written on this line after the indent */
+    while (*s) {
+        while (*s == ' ')
+            s++;
+        if (!*s)
+            break;
+        int n = (int)strcspn(s, " ");
+        if (!fresh && col + 1 + n > width) {
+            fprintf(out, "\n%*s", indent, "");
+            col = indent;
+            fresh = 1;
+        }
+        if (!fresh) {
+            fputc(' ', out);
+            col++;
+        }
+        while (col + n > width) {
+            /* A word wider than the line: cut after its last ',', ':' or
+             * '|' that fits, else where the line ends. */
+            int room = width - col;
+            for (int k = room; k > room / 2; k--)
+                if (strchr(",:|", s[k - 1])) {
+                    room = k;
+                    break;
+                }
+            fprintf(out, "%.*s\n%*s", room, s, indent, "");
+            s += room;
+            n -= room;
+            col = indent;
+        }
+        fprintf(out, "%.*s", n, s);
+        col += n;
+        s += n;
+        fresh = 0;
+    }
+    fputc('\n', out);
+}
+
 void fp_options_print_help(FILE *out, int markdown)
 {
+    const int width = markdown ? 0 : help_width(out);
+    /* The descriptions' column: beside the options on a wide screen, under
+     * them on a narrow one. */
+    const int desc_col = width >= 72 ? 37 : 8;
     if (!markdown) {
-        fprintf(out,
-                "Usage: fogpipe -i INPUT -o OUTPUT [--frames LIST] [options]\n"
-                "       fogpipe [options] < in.exr > out.exr\n"
-                "Adds physically based fog to color + depth OpenEXR frames.\n"
-                "INPUT/OUTPUT: a file, a sequence pattern (shot.####.exr, shot.%%04d.exr),\n"
-                "or - for a stream of concatenated EXR files on stdin/stdout.\n");
+        fputs("Usage: ", out);
+        wrap(out, "fogpipe -i INPUT -o OUTPUT [--frames LIST] [options]", 7, 15, width);
+        fputs("       ", out);
+        wrap(out, "fogpipe [options] < in.exr > out.exr", 7, 15, width);
+        wrap(out, "Adds physically based fog to color + depth OpenEXR frames.", 0, 0, width);
+        wrap(out, "INPUT/OUTPUT: a file, a sequence pattern (shot.####.exr, shot.%04d.exr), "
+             "or - for a stream of concatenated EXR files on stdin/stdout.", 0, 0, width);
     }
     for (const fp_option_group_t *g = fp_option_groups; g->title; g++) {
         if (markdown)
@@ -510,19 +609,32 @@ void fp_options_print_help(FILE *out, int markdown)
                 md_print(out, o->help);
                 fputs(" |\n", out);
             } else {
-                fprintf(out, "  %-34s %s", opt, o->help);
-                if (*def && o->type != FP_OPT_FLAG)
-                    fprintf(out, " [default: %s]", def);
-                if (*range && o->type != FP_OPT_ENUM)
-                    fprintf(out, " [range: %s]", range);
-                fputc('\n', out);
+                char text[2048];
+                int n = snprintf(text, sizeof text, "%s", o->help);
+                if (*def && o->type != FP_OPT_FLAG && n < (int)sizeof text)
+                    n += snprintf(text + n, sizeof text - n, " [default: %s]", def);
+                if (*range && o->type != FP_OPT_ENUM && n < (int)sizeof text)
+                    snprintf(text + n, sizeof text - n, " [range: %s]", range);
+                int col = 2 + (int)strlen(opt);
+                fputs("  ", out);
+                if (col > width) {
+                    wrap(out, opt, 2, 4, width);
+                    fprintf(out, "%*s", desc_col, "");
+                } else if (col + 1 > desc_col) {
+                    fprintf(out, "%s\n%*s", opt, desc_col, "");
+                } else {
+                    fprintf(out, "%s%*s", opt, desc_col - col, "");
+                }
+                wrap(out, text, desc_col, desc_col, width);
             }
         }
     }
-    if (!markdown)
-        fprintf(out, "\nEnvironment: FOGPIPE_DEVICE (as --device), FOGPIPE_CACHE_DIR "
-                     "(OpenCL program cache; 'off' disables), OCIO (as --ocio).\n%s %s\n",
-                PACKAGE_NAME, PACKAGE_VERSION);
+    if (!markdown) {
+        fputc('\n', out);
+        wrap(out, "Environment: FOGPIPE_DEVICE (as --device), FOGPIPE_CACHE_DIR (OpenCL program "
+             "cache; 'off' disables), OCIO (as --ocio).", 0, 0, width);
+        fprintf(out, "%s %s\n", PACKAGE_NAME, PACKAGE_VERSION);
+    }
 }
 
 void fp_options_free(fp_params_t *p)

@@ -125,7 +125,7 @@ typedef struct fp_light_params_t {
     int shadows;          /* FP_SHADOWS_* */
     double shadow_bias;   /* scene units, added to each texel's own */
     int shadow_filter;    /* edge ramps, texels each side (0: hard) */
-    double screen_shadow[3]; /* steps, distance, thickness */
+    double screen_shadow[2]; /* distance, thickness */
     int self_shadow;      /* FP_SELF_SHADOW_* */
     double self_shadow_grid[3];
     int self_shadow_cascades;
@@ -188,7 +188,7 @@ typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     char *stats;          /* per-frame timings as JSON */
     int no_fog;           /* benchmark: read and write only (the I/O floor) */
     int io_threads;       /* threads per EXR part's chunks; 0: one per core */
-    char *max_image_pixels; /* the image budget (src/limits.h); NULL: the default */
+    char *max_image_pixels; /* the image budget (src/fp_limits.h); NULL: the default */
 } fp_run_params_t;
 
 typedef struct fp_cmd_params_t {

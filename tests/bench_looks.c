@@ -429,7 +429,7 @@ int main(int argc, char **argv)
     }
     setvbuf(stdout, NULL, _IOLBF, 0);
     fogpipe_bin = getenv("FOGPIPE") ? getenv("FOGPIPE") : "./fogpipe";
-    scene_bin = getenv("FP_SCENE") ? getenv("FP_SCENE") : "./samples/fp-scene";
+    scene_bin = getenv("FP_SCENE") ? getenv("FP_SCENE") : "./samples/fogpipe-scene";
     oiiotool_bin = getenv("OIIOTOOL") && *getenv("OIIOTOOL") ? getenv("OIIOTOOL") : "oiiotool";
     scratch = argv[2];
     if (mkdir(scratch, 0777) && errno != EEXIST) {

@@ -2,7 +2,7 @@
  * (Markdown on stdout).  Figures, never pass/fail.
  *   bench_selfshadow DIR [DIR...]
  * Each DIR holds frame 1 of the sample scene (scene.0001.exr,
- * shadow.0001.exr, fogmap.exr, as samples/fp-scene writes them).  The look
+ * shadow.0001.exr, fogmap.exr, as samples/fogpipe-scene writes them).  The look
  * is make bench's "low-sun-shafts + fogmap 64x64, 3 levels" (the preset's
  * options written out, the fogmap linear, 3 levels).
  *

@@ -6,8 +6,8 @@
 S=$FP_SAMPLES
 
 check "--help lists options with defaults and ranges" \
-  sh -c '"$FOGPIPE" --help | grep -q -- "--density SIGMA.*default: 0.02.*range: 0..1e+06"'
-check "the sample scene's matrices reproject every pixel (fp-scene --check)" "$FP_SCENE" --check
+  sh -c 'COLUMNS=1000 "$FOGPIPE" --help | grep -q -- "--density SIGMA.*default: 0.02.*range: 0..1e+06"'
+check "the sample scene's matrices reproject every pixel (fogpipe-scene --check)" "$FP_SCENE" --check
 check "--version" sh -c '"$FOGPIPE" --version | grep -q "^fogpipe "'
 check "--list-devices shows PoCL's CPU device" sh -c '"$FOGPIPE" --list-devices | grep -qi "pthread\|cpu"'
 fails "unknown option: exit 2" 2 "unknown option --bogus" - "$FOGPIPE" --bogus

@@ -109,6 +109,29 @@ static void test_preset(void **state)
     unlink(path);
 }
 
+/* Short options bundle as getopt's: flags together, an option that takes
+ * a value ending the bundle with the rest of the word or the next word. */
+static void test_bundled_short_options(void **state)
+{
+    (void)state;
+    fp_params_t p;
+    const char *argv[] = { "fogpipe", "-qv", "-qoout.exr", "-vf", "1-3", "-i-" };
+    assert_int_equal(parse(&p, 6, argv), FP_OK);
+    assert_int_equal(p.io.quiet, 1);
+    assert_int_equal(p.io.verbose, 1);
+    assert_string_equal(p.io.output, "out.exr");
+    assert_string_equal(p.io.frames, "1-3");
+    assert_string_equal(p.io.input, "-");
+    fp_options_free(&p);
+    const char *bad[][3] = { { "fogpipe", "-qx", NULL }, { "fogpipe", "-qo", NULL },
+                             { "fogpipe", "-vV", "-z" } };
+    const int argc[] = { 2, 2, 3 };
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(parse(&p, argc[i], bad[i]), FP_EUSAGE);
+        fp_options_free(&p);
+    }
+}
+
 static void test_help_lists_everything(void **state)
 {
     (void)state;
@@ -138,6 +161,7 @@ int main(void)
         cmocka_unit_test(test_parse),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_preset),
+        cmocka_unit_test(test_bundled_short_options),
         cmocka_unit_test(test_help_lists_everything),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

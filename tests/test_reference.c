@@ -976,7 +976,7 @@ static void test_bounces_monotone(void **state)
 /* ------------------------------------------------------------ joint */
 
 /* The deterministic integrator against the reference on the sample scene
- * (64 x 48, frame 1 of fp-scene): its sun with the shadow map, a point
+ * (64 x 48, frame 1 of fogpipe-scene): its sun with the shadow map, a point
  * light, ambient, exponential fog, HG phase: relative error <= 1% or
  * absolute <= 1e-3 in all four channels on >= 99% of the pixels.  The
  * reference is the mean of two independent runs of 2048 spp (OpenCL when
@@ -990,7 +990,7 @@ static int scene_dir(char *dir, size_t size)
     const char *gen = getenv("FP_SCENE");
     const char *fmt = "mkdir -p '%s' && '%s' -o '%s' --width 64 --height 48 --frames 1-1 "
                       ">/dev/null";
-    gen = gen ? gen : "samples/fp-scene";
+    gen = gen ? gen : "samples/fogpipe-scene";
     int len = snprintf(NULL, 0, fmt, dir, gen, dir);
     char *cmd = malloc((size_t)len + 1);
     if (!cmd)
@@ -1006,7 +1006,7 @@ static void test_deterministic_vs_reference(void **state)
     (void)state;
     char dir[4096];
     if (scene_dir(dir, sizeof dir) != 0) {
-        print_message("fp-scene did not run (set FP_SCENE)\n");
+        print_message("fogpipe-scene did not run (set FP_SCENE)\n");
         fail();
     }
     fp_cl_t *cl = NULL;

@@ -1020,7 +1020,7 @@ static void test_self_shadow_grid(void **state)
 
 /* ------------------------------------------------------------ the sample scene */
 
-/* samples/fp-scene, run once into a temporary directory: a 64x48 frame 1
+/* samples/fogpipe-scene, run once into a temporary directory: a 64x48 frame 1
  * (scene.0001.exr), its sun map (shadow.0001.exr, 512 texels) and the
  * fogmap.  $FP_SCENE (make check) or next to the test binary. */
 static const char *test_argv0 = "tests/test_scatter";
@@ -1036,13 +1036,13 @@ static const char *sample_scene(void)
     if (env && *env) {
         snprintf(gen, sizeof gen, "%s", env);
     } else {
-        /* tests/test_scatter -> samples/fp-scene (an in-tree or VPATH build). */
+        /* tests/test_scatter -> samples/fogpipe-scene (an in-tree or VPATH build). */
         snprintf(gen, sizeof gen, "%s", test_argv0);
         char *slash = strrchr(gen, '/');
         if (slash)
-            snprintf(slash, gen + sizeof gen - slash, "/../samples/fp-scene");
+            snprintf(slash, gen + sizeof gen - slash, "/../samples/fogpipe-scene");
         else
-            snprintf(gen, sizeof gen, "../samples/fp-scene");
+            snprintf(gen, sizeof gen, "../samples/fogpipe-scene");
     }
     if (access(gen, X_OK) != 0) {
         print_message("no sample scene generator at %s (set FP_SCENE)\n", gen);
@@ -1916,7 +1916,7 @@ static void test_screen_shadows(void **state)
         }
     fp_view_pack(&v, packed);
     static const char *const opts[] = { "density", "0.03", "sun", "0,0.3,1", "shadows",
-                                        "screen", "screen-shadow", "64,20,1", NULL };
+                                        "screen", "screen-shadow", "20,1", NULL };
     rig_t r;
     rig_open(&r, opts);
     assert_int_equal(fp_scatter_frame(&r.p, &r.sd, &r.fog, &v, depth, 1), FP_OK);
@@ -2045,6 +2045,36 @@ static void test_options(void **state)
     expect_usage("light", "spot:1,2,3:1,1,1:5:0,-1,0:40,30", "cone angles");
     expect_usage("light", "spot:1,2,3:1,1,1:5:0,-1,0:0,0", "cone angles");
     expect_usage("light", "spot:1,2,3:1,1,1:5:0,-1,0:10,190", "cone angles");
+    /* --screen-shadow DIST,THICK; the old STEPS,DIST,THICK runs with one
+     * warning and the same values. */
+    expect_ok("screen-shadow", "20,1");
+    expect_ok("screen-shadow", "0,0");
+    static const char *const bad_screen[] = { "20", "1,2,3,4", "20,x", "20,-1", "", "20,1," };
+    for (size_t i = 0; i < FP_ARRAY_LEN(bad_screen); i++)
+        expect_usage("screen-shadow", bad_screen[i], "expected DIST,THICK");
+    {
+        char msg[2048];
+        assert_int_equal(try_option("screen-shadow", "32,25,0.5", msg, sizeof msg), FP_OK);
+        if (!strstr(msg, "STEPS is no longer used") || !strstr(msg, "give DIST,THICK: 25,0.5") ||
+            strchr(msg, '\n') != msg + strlen(msg) - 1)
+            fail_msg("--screen-shadow 32,25,0.5: expected one warning line, got '%s'", msg);
+        fp_params_t q;
+        fp_options_defaults(&q);
+        assert_double_equal(q.light.screen_shadow[0], 20, 0);
+        assert_double_equal(q.light.screen_shadow[1], 1, 0);
+        fp_msgbuf_t quiet;
+        memset(&quiet, 0, sizeof quiet);
+        fp_msgbuf_t *was = fp_msg_capture(&quiet);
+        assert_int_equal(fp_options_apply(&q, "screen-shadow", "32,25,0.5", "t"), FP_OK);
+        fp_msg_capture(was);
+        fp_msg_free(&quiet);
+        assert_double_equal(q.light.screen_shadow[0], 25, 0);
+        assert_double_equal(q.light.screen_shadow[1], 0.5, 0);
+        assert_int_equal(fp_options_apply(&q, "screen-shadow", "7,3", "t"), FP_OK);
+        assert_double_equal(q.light.screen_shadow[0], 7, 0);
+        assert_double_equal(q.light.screen_shadow[1], 3, 0);
+        fp_options_free(&q);
+    }
     /* The parsed values, and the limit of 8 lights. */
     fp_params_t p;
     fp_options_defaults(&p);
@@ -2100,10 +2130,9 @@ static void test_options(void **state)
         { "shadow-map", "shadow.####.exr", NULL },
         { "sun", "0,1,0", "shadows", "map", NULL },
         { "sun", "0,0,0", NULL },
-        { "sun", "0,1,0", "shadows", "screen", "screen-shadow", "0,10,1" },
     };
     static const char *const commit_msg[] = { "give --sun too", "needs --shadow-map",
-                                              "non-zero direction", "at least one step" };
+                                              "non-zero direction" };
     for (size_t i = 0; i < FP_ARRAY_LEN(commit_bad); i++) {
         rig_t r;
         memset(&r, 0, sizeof r);
@@ -2683,7 +2712,7 @@ static void test_shafts_screen(void **state)
     const int w = 160, h = 90;
     fp_view_t v;
     float *depth = caster_view(&s, w, h, &v);
-    const char *extra[] = { "shadows", "screen", "screen-shadow", "32,25,1", "self-shadow",
+    const char *extra[] = { "shadows", "screen", "screen-shadow", "25,1", "self-shadow",
                             "exact", NULL };
     rig_t r;
     sh_rig(&r, extra, NULL, 0, 0);
