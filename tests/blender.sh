@@ -5,7 +5,7 @@
 # rolling, zooming, lens shift) for each sensor fit (AUTO, VERTICAL on a
 # landscape frame, HORIZONTAL on a portrait frame) and an orthographic
 # camera (its rays parallel, starting on the camera's plane); each is rendered (64x48, 1 sample, frames 1-3) the way a user
-# would, `blender -b shot.blend -P samples/blender/fogpipe_camera.py -a`,
+# would, `blender -b shot.blend -P samples/blender/fogpipe_blender.py -a`,
 # with tests/blender/truth.py writing Blender's own camera and ray casts of
 # the same run.  Then, on every frame:
 #   - `fogpipe --print-camera --up z` equals Blender's camera (position,
@@ -36,7 +36,7 @@ if ! command -v "$BLENDER" >/dev/null 2>&1; then
   finish
   exit $?
 fi
-ADDON="$FP_SRCDIR/samples/blender/fogpipe_camera.py"
+ADDON="$FP_SRCDIR/samples/blender/fogpipe_blender.py"
 TB="$FP_SRCDIR/tests/blender"
 SIGMA=0.2
 HSCALE=2
@@ -168,7 +168,7 @@ check "installed as an add-on: frame 2 carries Blender's camera" sh -c '
   -noaudio --python-expr "
 import bpy
 bpy.ops.preferences.addon_install(filepath=\"$2\")
-bpy.ops.preferences.addon_enable(module=\"fogpipe_camera\")
+bpy.ops.preferences.addon_enable(module=\"fogpipe_blender\")
 scene = bpy.context.scene
 scene.render.filepath = \"$3/addon/render.####\"
 scene.frame_start = scene.frame_end = 2
