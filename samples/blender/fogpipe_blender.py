@@ -1,49 +1,32 @@
 # fogpipe for Blender: every rendered frame carries what fogpipe needs to fog
-# it with the scene's own light, and nothing has to be typed twice.
+# it with the scene's own light (README "From Blender" tells the whole path).
 #
-# Blender writes no camera into its EXR files, and it can put only strings
-# into an EXR header: the fields of its render stamp (Output Properties >
-# Metadata), which it writes as string attributes of every EXR, single-layer
-# and multilayer alike, whether or not the stamp is burnt into the image.
-# Before each frame renders this add-on fills the stamp's Note with
-#
+# Blender can put only strings into an EXR header: the fields of its render
+# stamp, written into every EXR whether or not the stamp is burnt in.  Before
+# each frame renders (frame_change_post, called with the render's evaluated
+# depsgraph for -a, -f N, F12 and Ctrl-F12) the add-on fills the stamp's Note:
 #   fogpipe-camera 1 worldToCamera <16 numbers> worldToNDC <16 numbers>
-#   fogpipe-look 1 density=... height=... fog-color=... phase=... albedo=...
+#   [fogpipe-look 1 density=... height=... fog-color=... phase=... albedo=...]
 #   fogpipe-rig 1 up z clip START [shadow PATH] lights N LIGHT...
+# The camera is Blender's own projection (Object.calc_matrix_camera) as
+# OpenEXR defines its matrices (row vectors, row by row); the rig (schema in
+# README "From other hosts") is every visible sun, point, spot and area light
+# in Cycles' units.  Blender keeps 511 bytes of the Note: what does not fit
+# (the look, lights) is added after Blender writes the frame (render_write)
+# as the string attributes fogpipeLook and fogpipeRig (the complete rig), by
+# rewriting the header; the pixels' bytes are not touched.  Text you put in
+# the Note yourself is kept in front when there is room.
 #
-# (the look only when "Write the fog look" is on).  The camera matrices are
-# OpenEXR's (row vectors, row by row), from Blender's own projection
-# (Object.calc_matrix_camera) of the evaluated camera, so animated cameras,
-# camera switches at markers, lens, sensor fit, shift and orthographic
-# cameras are what Blender renders.  The rig is the schema of fogpipe's
-# README ("From other hosts"): every visible sun, point, spot and area light
-# of the render's evaluated depsgraph, in Cycles' units (sun: color x
-# strength; point and spot: color x power / (4 pi); area: color x power / 4).
-# The Note holds 767 bytes: when the lights do not all fit, it keeps the
-# camera, the look, the rig's head with `lights N` and the lights that fit,
-# and after Blender writes the frame the complete rig is added to the EXR as
-# the string attribute fogpipeRig (the header is rewritten, pixels untouched).
-# Text you put in the Note yourself is kept in front when there is room.
+# Output Properties > fogpipe: the fog look (saved in the .blend), sun shadow
+# maps (depth along the sun, fitted to the fog the camera sees), Preview Fog
+# (the Render Result through fogpipe's Python module), and the check that the
+# output is OpenEXR MultiLayer with the Z pass (also printed at render start).
 #
-# Also here (Output Properties > fogpipe): the fog look saved in the .blend,
-# sun shadow maps (depth from an orthographic camera along the sun, fitted to
-# the fog the camera sees), a "Preview fog" operator running the Render
-# Result through fogpipe's Python module, and a check that the output is
-# OpenEXR MultiLayer with the Z pass.
-#
-# Set it up once, either way:
-#   - as an add-on: Edit > Preferences > Add-ons > Install... this file,
-#     enable "Render: fogpipe";
-#   - on a farm, without preferences: run it before rendering,
-#       blender -b shot.blend -P /usr/local/share/fogpipe/blender/fogpipe_blender.py -a
-#     (-P must come before -a or -f); sun shadow maps for frames A-B first:
-#       blender -b shot.blend -P fogpipe_blender.py -- --fogpipe-shadow-maps [--frames A-B]
-# Then: fogpipe -i render.####.exr -o fogged.####.exr
-#
-# The frame handler runs on frame_change_post, which Blender calls with the
-# render's own evaluated depsgraph before each frame of `-a`, `-f N` and
-# F12/Ctrl-F12 renders; the stamp is made after the frame renders, from the
-# scene's Note at that time.
+# Set it up once: Edit > Preferences > Add-ons > Install... this file, enable
+# "Render: fogpipe"; or, on a farm, run it before rendering (-P before -a):
+#   blender -b shot.blend -P /usr/local/share/fogpipe/blender/fogpipe_blender.py -a
+# Sun shadow maps for frames A-B, then the frames (naming their maps):
+#   blender -b shot.blend -P fogpipe_blender.py -a -- --fogpipe-shadow-maps --frames A-B
 
 bl_info = {
     "name": "fogpipe",
@@ -359,7 +342,8 @@ def exr_header(data):
             if size < 0 or start + size > len(data):
                 raise ExrError("attribute '%s' runs past the end of the file"
                                % data[pos:n_end].decode("latin-1"))
-            attrs.append((data[pos:n_end].decode("latin-1"), data[n_end + 1:t_end].decode("latin-1"),
+            attrs.append((data[pos:n_end].decode("latin-1"),
+                          data[n_end + 1:t_end].decode("latin-1"),
                           data[start:start + size], data[pos:start + size]))
             pos = start + size
     except (IndexError, ValueError, struct.error):
@@ -423,11 +407,8 @@ def exr_set_strings(path, values):
 
 def written_files(scene, frame):
     r = scene.render
-    if r.use_multiview and r.views_format == 'MULTIVIEW':
-        return [frame_file(scene, frame)]
-    if r.use_multiview:
-        return [bpy.path.abspath(r.frame_path(frame=frame, view=v.name))
-                for v in r.views if v.use]
+    if r.use_multiview and r.views_format == 'INDIVIDUAL':
+        return [bpy.path.abspath(r.frame_path(frame=frame, view=v.name)) for v in r.views if v.use]
     return [frame_file(scene, frame)]
 
 
@@ -622,16 +603,14 @@ def fit_sun_camera(scene, frames):
     the fog the camera sees over all of them: (matrix_world, ortho scale,
     nx, ny, clip_end, texel, the console line) or None without a sun."""
     s = scene.fogpipe
-    texel = s.thinnest_caster / 8.0
-    lo = [math.inf] * 3
-    hi = [-math.inf] * 3
-    d = None
-    cuts = ""
+    texel = want = s.thinnest_caster / 8.0
+    lo, hi, d, cuts = [math.inf] * 3, [-math.inf] * 3, None, ""
     for f in frames:
         scene.frame_set(f)
         dg = bpy.context.evaluated_depsgraph_get()
         sun = strongest_sun(dg)
         if sun is None:
+            log("frame %d: no visible sun with some strength: no shadow map" % f)
             return None
         if d is None:
             d = sun[0]
@@ -645,18 +624,15 @@ def fit_sun_camera(scene, frames):
                 lo[i], hi[i] = min(lo[i], v), max(hi[i], v)
         hi[2] = max(hi[2], casters_top(dg, d))
     w, h = hi[0] - lo[0] + 2 * texel, hi[1] - lo[1] + 2 * texel
-    want = texel
     if max(w, h) / texel > MAX_TEXELS:
         texel = max(w, h) / MAX_TEXELS
     nx, ny = max(1, math.ceil(w / texel)), max(1, math.ceil(h / texel))
     w, h = nx * texel, ny * texel
-    uc, vc = (lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2
     top = hi[2] + 1.0
     m = Matrix((ax, ay, d)).transposed().to_4x4()
-    m.translation = ax * uc + ay * vc + d * top
-    held = texel * 8.0
+    m.translation = ax * (lo[0] + hi[0]) / 2 + ay * (lo[1] + hi[1]) / 2 + d * top
     line = ("sun map covers %.4g x %.4g m (%s), %d x %d texels of %.4g m: casters down to "
-            "%.4g m held (8 texels across)" % (w, h, cuts, nx, ny, texel, held))
+            "%.4g m held (8 texels across)" % (w, h, cuts, nx, ny, texel, 8 * texel))
     if texel > want * (1 + 1e-9):
         line += "; WARNING: the thinnest caster setting (%.4g m) needs more than %d texels " \
                 "a side: raise it or the max distance" % (s.thinnest_caster, MAX_TEXELS)
@@ -668,9 +644,10 @@ def disable_passes(vl):
         if owner is None:
             continue
         for p in owner.bl_rna.properties:
-            if p.type == 'BOOLEAN' and p.identifier.startswith(("use_pass_", "denoising_store")) \
-                    and not p.is_readonly and p.identifier not in ("use_pass_z", "use_pass_combined"):
-                setattr(owner, p.identifier, False)
+            name = p.identifier
+            if p.type == 'BOOLEAN' and name.startswith(("use_pass_", "denoising_store")) \
+                    and not p.is_readonly and name not in ("use_pass_z", "use_pass_combined"):
+                setattr(owner, name, False)
     vl.use_pass_z = True
     aovs = getattr(vl, "aovs", None)
     while aovs is not None and len(aovs):
@@ -691,7 +668,6 @@ def render_shadow_maps(scene, frames):
         for group in groups:
             fit = fit_sun_camera(scene, group)
             if fit is None:
-                log("no visible sun with some strength: no shadow map")
                 return written
             m, scale, nx, ny, clip_end, texel, line = fit
             frame = group[0]
@@ -702,15 +678,12 @@ def render_shadow_maps(scene, frames):
                 tmp[SHADOW_SCENE] = True
                 tmp.timeline_markers.clear()   # no camera switches
                 cam_data = bpy.data.cameras.new("fogpipe-sun")
-                cam_data.type = 'ORTHO'
-                cam_data.clip_start = 1e-3
+                cam_data.type, cam_data.clip_start = 'ORTHO', 1e-3
                 cam_ob = bpy.data.objects.new("fogpipe-sun", cam_data)
                 tmp.collection.objects.link(cam_ob)
                 tmp.camera = cam_ob
                 setup_map_scene(tmp)
-            cam_ob.matrix_world = m
-            cam_ob.data.ortho_scale = scale
-            cam_ob.data.clip_end = clip_end
+            cam_ob.matrix_world, cam_ob.data.ortho_scale, cam_ob.data.clip_end = m, scale, clip_end
             tmp.render.resolution_x, tmp.render.resolution_y = nx, ny
             os.makedirs(os.path.dirname(target), exist_ok=True)
             tmp.render.filepath = os.path.join(os.path.dirname(target), ".fogpipe-sun.####")
@@ -740,32 +713,22 @@ def setup_map_scene(tmp):
     center, full float multilayer EXR with the Z pass, nothing else."""
     r = tmp.render
     r.engine = 'CYCLES'
-    c = tmp.cycles
-    c.samples = 1
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.filter_width = 0.01
-    c.max_bounces = 0
-    c.use_animated_seed = False
-    r.film_transparent = True
-    r.resolution_percentage = 100
-    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
-    for flag in ("use_border", "use_motion_blur", "use_compositing", "use_sequencer",
-                 "use_freestyle", "use_multiview", "use_persistent_data", "use_stamp"):
-        if hasattr(r, flag):
-            setattr(r, flag, False)
-    r.use_file_extension = True
-    r.use_overwrite = True
-    r.use_placeholder = False
+    for k, v in dict(samples=1, use_adaptive_sampling=False, use_denoising=False,
+                     filter_width=0.01, max_bounces=0, use_animated_seed=False).items():
+        setattr(tmp.cycles, k, v)
+    for k, v in dict(film_transparent=True, resolution_percentage=100, pixel_aspect_x=1.0,
+                     pixel_aspect_y=1.0, use_border=False, use_motion_blur=False,
+                     use_compositing=False, use_sequencer=False, use_freestyle=False,
+                     use_multiview=False, use_persistent_data=False, use_stamp=False,
+                     use_file_extension=True, use_overwrite=True, use_placeholder=False,
+                     use_stamp_note=True).items():
+        setattr(r, k, v)
     im = r.image_settings
-    im.file_format = 'OPEN_EXR_MULTILAYER'
-    im.color_depth = '32'
-    im.exr_codec = 'ZIP'
+    im.file_format, im.color_depth, im.exr_codec = 'OPEN_EXR_MULTILAYER', '32', 'ZIP'
     used = [vl for vl in tmp.view_layers if vl.use] or list(tmp.view_layers)
     for vl in tmp.view_layers:
         vl.use = vl == used[0]
     disable_passes(used[0])
-    r.use_stamp_note = True
 
 
 def parse_frames(text, scene):
@@ -788,20 +751,23 @@ class FOGPIPE_OT_shadow_maps(bpy.types.Operator):
                                      description="A-B[,C-D]; empty: the scene's range")
 
     def execute(self, context):
-        scene = context.scene
-        if scene.camera is None:
-            self.report({'ERROR'}, "fogpipe: the scene has no camera")
-            return {'CANCELLED'}
-        try:
-            made = render_shadow_maps(scene, parse_frames(self.frames, scene))
-        except (RuntimeError, ValueError) as e:
-            self.report({'ERROR'}, str(e))
-            return {'CANCELLED'}
-        if not made:
-            self.report({'ERROR'}, "fogpipe: no shadow map rendered (no visible sun)")
+        made, err = shadow_maps_for(context.scene, self.frames)
+        if err:
+            self.report({'ERROR'}, err)
             return {'CANCELLED'}
         self.report({'INFO'}, "fogpipe: %d shadow map(s), %s" % (len(made), made[0]))
         return {'FINISHED'}
+
+
+def shadow_maps_for(scene, frames):
+    """(files, None) or (None, the message)."""
+    if scene.camera is None:
+        return None, "fogpipe: scene '%s' has no camera: no shadow map" % scene.name
+    try:
+        made = render_shadow_maps(scene, parse_frames(frames, scene))
+    except (RuntimeError, ValueError) as e:
+        return None, "fogpipe: scene '%s': %s" % (scene.name, e)
+    return (made, None) if made else (None, "fogpipe: no shadow map rendered (see above)")
 
 
 # ---------------------------------------------------------------- preview
@@ -834,20 +800,16 @@ class FOGPIPE_OT_preview(bpy.types.Operator):
         os.makedirs(work, exist_ok=True)
         src = os.path.join(work, "render.exr")
         rr = bpy.data.images.get("Render Result")
-        saved = False
-        if rr is not None:
-            try:
-                settings = scene.render.image_settings
-                fmt, depth = settings.file_format, settings.color_depth
-                settings.file_format, settings.color_depth = 'OPEN_EXR_MULTILAYER', '32'
-                try:
-                    rr.save_render(src, scene=scene)
-                finally:
-                    settings.file_format, settings.color_depth = fmt, depth
-                saved = os.path.exists(src)
-            except RuntimeError:
-                saved = False
-        if not saved:
+        im = scene.render.image_settings
+        fmt, depth = im.file_format, im.color_depth
+        try:   # the Render Result with its passes and stamp, exactly
+            im.file_format, im.color_depth = 'OPEN_EXR_MULTILAYER', '32'
+            rr.save_render(src, scene=scene)
+        except (AttributeError, RuntimeError):   # none, or nothing rendered
+            pass
+        finally:
+            im.file_format, im.color_depth = fmt, depth
+        if not os.path.exists(src):
             src = frame_file(scene, scene.frame_current)
             if not os.path.exists(src):
                 self.report({'ERROR'}, "fogpipe: no Render Result and no rendered frame %d (%s): "
@@ -871,20 +833,13 @@ class FOGPIPE_OT_preview(bpy.types.Operator):
         else:
             img.filepath = out
             img.reload()
-        shown = False
-        for win in context.window_manager.windows:
-            for area in win.screen.areas:
-                if area.type == 'IMAGE_EDITOR':
-                    area.spaces.active.image = img
-                    shown = True
-                    break
-            if shown:
-                break
-        if not shown and context.window is not None:
+        def editors():
+            return [a for w in context.window_manager.windows for a in w.screen.areas
+                    if a.type == 'IMAGE_EDITOR']
+        if not editors() and context.window is not None:
             bpy.ops.render.view_show('INVOKE_DEFAULT')
-            for area in context.window_manager.windows[-1].screen.areas:
-                if area.type == 'IMAGE_EDITOR':
-                    area.spaces.active.image = img
+        for area in editors()[:1]:
+            area.spaces.active.image = img
         self.report({'INFO'}, "fogpipe: preview in image 'fogpipe preview' (%s)" % out)
         return {'FINISHED'}
 
@@ -897,58 +852,43 @@ PHASES = [('iso', "Isotropic", "iso"), ('hg', "Henyey-Greenstein", "hg:G"),
           ('mixhg', "Rayleigh + Henyey-Greenstein", "mixhg:W,G")]
 
 
+B, F, V = bpy.props.BoolProperty, bpy.props.FloatProperty, bpy.props.FloatVectorProperty
+
+
 class FogpipeSettings(bpy.types.PropertyGroup):
-    enabled: bpy.props.BoolProperty(
-        name="fogpipe", default=True,
-        description="Write the camera, lights and look into the stamp Note of every rendered "
-                    "frame, read by fogpipe")
-    use_look: bpy.props.BoolProperty(
-        name="Write the Fog Look", default=False,
-        description="Write these fog settings with every frame (fogpipe-look): the farm's "
-                    "fogpipe run uses them; its own options still win")
-    density: bpy.props.FloatProperty(name="Density", default=0.02, min=0.0, max=1e6,
-                                     precision=4, description="--density: extinction per meter")
-    height_base: bpy.props.FloatProperty(name="Base", default=0.0, unit='LENGTH',
-                                         description="--height Y0: full density below it")
-    height_scale: bpy.props.FloatProperty(name="Scale Height", default=20.0, min=1e-6,
-                                          unit='LENGTH', description="--height H: exp(-(z-Y0)/H)")
-    homogeneous: bpy.props.BoolProperty(name="Homogeneous", default=False,
-                                        description="H = inf: the same density at every height")
-    use_top: bpy.props.BoolProperty(name="Top", default=False, description="no fog above TOP")
-    height_top: bpy.props.FloatProperty(name="Top", default=50.0, unit='LENGTH',
-                                        description="--height TOP")
-    fog_color: bpy.props.FloatVectorProperty(name="Fog Color", subtype='COLOR', size=3,
-                                             default=(0.7, 0.75, 0.8), min=0.0, max=1e6,
-                                             description="--fog-color (scene-linear)")
-    phase: bpy.props.EnumProperty(name="Phase", items=PHASES, default='iso',
-                                  description="--phase")
-    phase_g: bpy.props.FloatProperty(name="G", default=0.6, min=-0.99, max=0.99,
-                                     description="anisotropy (> 0 scatters forward)")
-    phase_w: bpy.props.FloatProperty(name="Rayleigh Weight", default=0.3, min=0.0, max=1.0)
-    albedo: bpy.props.FloatProperty(name="Albedo", default=1.0, min=0.0, max=1.0,
-                                    description="--albedo: scattered part of the extinction")
-    use_box: bpy.props.BoolProperty(name="Box", default=False, description="no fog outside it")
-    box_min: bpy.props.FloatVectorProperty(name="Box Min", size=3, default=(-50, -50, -10),
-                                           subtype='XYZ', unit='LENGTH')
-    box_max: bpy.props.FloatVectorProperty(name="Box Max", size=3, default=(50, 50, 30),
-                                           subtype='XYZ', unit='LENGTH')
-    shadow_maps: bpy.props.BoolProperty(
-        name="Record Sun Shadow Map", default=False,
-        description="Name the sun's shadow map in every frame's rig (set when maps are rendered)")
+    enabled: B(name="fogpipe", default=True, description="Write the camera, lights and look into "
+               "every rendered frame (stamp Note, EXR attributes), read by fogpipe")
+    use_look: B(name="Write the Fog Look", default=False, description="Write these settings with "
+                "every frame (fogpipe-look): fogpipe uses them; its own options still win")
+    density: F(name="Density", default=0.02, min=0.0, max=1e6, precision=4,
+               description="--density: extinction per meter")
+    height_base: F(name="Base", default=0.0, unit='LENGTH', description="--height Y0")
+    height_scale: F(name="Scale Height", default=20.0, min=1e-6, unit='LENGTH',
+                    description="--height H: density exp(-(z-Y0)/H) above Y0")
+    homogeneous: B(name="Homogeneous", default=False, description="H = inf")
+    use_top: B(name="Top", default=False, description="no fog above TOP")
+    height_top: F(name="Top", default=50.0, unit='LENGTH', description="--height TOP")
+    fog_color: V(name="Fog Color", subtype='COLOR', size=3, default=(0.7, 0.75, 0.8), min=0.0,
+                 max=1e6, description="--fog-color (scene-linear)")
+    phase: bpy.props.EnumProperty(name="Phase", items=PHASES, default='iso', description="--phase")
+    phase_g: F(name="G", default=0.6, min=-0.99, max=0.99, description="> 0 scatters forward")
+    phase_w: F(name="Rayleigh Weight", default=0.3, min=0.0, max=1.0)
+    albedo: F(name="Albedo", default=1.0, min=0.0, max=1.0, description="--albedo")
+    use_box: B(name="Box", default=False, description="--fog-box: no fog outside it")
+    box_min: V(name="Box Min", size=3, default=(-50, -50, -10), subtype='XYZ', unit='LENGTH')
+    box_max: V(name="Box Max", size=3, default=(50, 50, 30), subtype='XYZ', unit='LENGTH')
+    shadow_maps: B(name="Record Sun Shadow Map", default=False, description="Name the sun's "
+                   "shadow map in every frame's rig (set when maps are rendered)")
     shadow_path: bpy.props.StringProperty(
-        name="Map Path", default="fogpipe/sun.####.exr",
-        description="Shadow map files: '#' the frame; relative to the frames' directory, or "
-                    "'//' the .blend's")
-    shadow_static: bpy.props.BoolProperty(
-        name="Static", default=False,
-        description="Sun and scene do not move: one map (the first frame's) for every frame")
-    thinnest_caster: bpy.props.FloatProperty(
-        name="Thinnest Caster", default=0.25, min=1e-4, unit='LENGTH',
-        description="The thinnest shadow caster the map must hold: texel = this / 8 "
-                    "(fewer than about 8 texels across lose its shaft)")
-    shadow_distance: bpy.props.FloatProperty(
-        name="Max Distance", default=100.0, min=0.01, unit='LENGTH',
-        description="The map covers the fog the camera sees up to this distance")
+        name="Map Path", default="fogpipe/sun.####.exr", description="'#': the frame; relative "
+        "to the frames' directory, or '//' to the .blend's")
+    shadow_static: B(name="Static", default=False, description="Sun and scene do not move: one "
+                     "map (the first frame's) for every frame")
+    thinnest_caster: F(name="Thinnest Caster", default=0.25, min=1e-4, unit='LENGTH',
+                       description="The thinnest caster whose shadow must show: texel = this / 8 "
+                       "(with fewer than about 8 texels across, shafts are lost)")
+    shadow_distance: F(name="Max Distance", default=100.0, min=0.01, unit='LENGTH',
+                       description="The map covers the fog the camera sees up to this distance")
 
 
 class FOGPIPE_PT_panel(bpy.types.Panel):
@@ -970,43 +910,26 @@ class FOGPIPE_PT_panel(bpy.types.Panel):
             layout.label(text=p, icon='ERROR')
         if problems:
             layout.operator("fogpipe.setup_output")
-        box = layout.box()
-        box.prop(s, "use_look")
-        col = box.column()
-        col.active = s.use_look
-        col.prop(s, "density")
-        row = col.row(align=True)
-        row.prop(s, "height_base")
-        sub = row.row(align=True)
-        sub.active = not s.homogeneous
-        sub.prop(s, "height_scale")
-        row = col.row(align=True)
-        row.prop(s, "homogeneous")
-        row.prop(s, "use_top")
-        sub = row.row()
-        sub.active = s.use_top
-        sub.prop(s, "height_top", text="")
-        col.prop(s, "fog_color")
-        row = col.row(align=True)
-        row.prop(s, "phase")
-        if s.phase in ('mix', 'mixhg'):
-            row.prop(s, "phase_w")
-        if s.phase not in ('iso', 'rayleigh'):
-            row.prop(s, "phase_g")
-        col.prop(s, "albedo")
-        col.prop(s, "use_box")
+        col = layout.box().column()
+        col.prop(s, "use_look")
+        rows = [("density",), ("height_base", "height_scale"), ("homogeneous", "use_top",
+                "height_top"), ("fog_color",), ("phase",) + (("phase_w",) if s.phase in (
+                    'mix', 'mixhg') else ()) + (("phase_g",) if s.phase not in (
+                        'iso', 'rayleigh') else ()), ("albedo",), ("use_box",)]
         if s.use_box:
-            col.prop(s, "box_min")
-            col.prop(s, "box_max")
-        box = layout.box()
-        box.label(text="Sun Shadow Maps")
-        box.prop(s, "shadow_maps")
-        box.prop(s, "shadow_path")
-        row = box.row()
-        row.prop(s, "thinnest_caster")
-        row.prop(s, "shadow_distance")
-        box.prop(s, "shadow_static")
-        box.operator("fogpipe.shadow_maps")
+            rows += [("box_min",), ("box_max",)]
+        rows += [(None,), ("shadow_maps", "shadow_static"), ("shadow_path",),
+                 ("thinnest_caster", "shadow_distance")]
+        for names in rows:
+            row = col.row(align=True)
+            row.active = s.use_look or names[0] in ("shadow_maps", "shadow_path",
+                                                    "thinnest_caster")
+            for n in names:
+                if n is None:
+                    row.label(text="Sun Shadow Maps")
+                else:
+                    row.prop(s, n)
+        col.operator("fogpipe.shadow_maps")
         layout.operator("fogpipe.preview", icon='IMAGE')
 
 
@@ -1061,19 +984,14 @@ def unregister():
 
 def main(argv):
     """-P mode: register; with --fogpipe-shadow-maps [--frames A-B], render
-    the sun's shadow maps of the scene (the rest of the command line, -a,
-    then records them)."""
+    the sun's shadow maps (the rest of the command line, -a, records them)."""
     register()
     args = argv[argv.index("--") + 1:] if "--" in argv else []
     if "--fogpipe-shadow-maps" in args:
-        scene = bpy.context.scene
-        frames = None
-        if "--frames" in args and args.index("--frames") + 1 < len(args):
-            frames = args[args.index("--frames") + 1]
-        if scene.camera is None:
-            log("scene '%s' has no camera: no shadow map" % scene.name)
-            sys.exit(1)
-        if not render_shadow_maps(scene, parse_frames(frames, scene)):
+        i = args.index("--frames") + 1 if "--frames" in args else len(args)
+        made, err = shadow_maps_for(bpy.context.scene, args[i] if i < len(args) else None)
+        if err:
+            print(err, flush=True)
             sys.exit(1)
 
 
