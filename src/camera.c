@@ -372,7 +372,7 @@ static int parse_camera_text(const fp_frame_info_t *info, const char *where_file
     if (!ok)
         return fp_error("%s: frame %ld: attribute '%s': expected 'fogpipe-camera 1 worldToCamera "
                         "<16 numbers> worldToNDC <16 numbers>' (from samples/blender/"
-                        "fogpipe_camera.py)", where_file, frame, info->camera_text_attr);
+                        "fogpipe_blender.py)", where_file, frame, info->camera_text_attr);
     return FP_OK;
 }
 
