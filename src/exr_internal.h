@@ -192,6 +192,12 @@ typedef struct fp_exr_hpart_t {
     int64_t chunk_count;       /* the chunkCount attribute (has_cc) */
     const uint8_t *chans;      /* the channels attribute's value, or NULL */
     uint32_t chans_size;
+    /* the values of the attributes a multipart file's parts must share
+     * (OpenEXR's MultiPartInputFile refuses a file whose parts differ in
+     * them), or NULL: displayWindow (box2i), pixelAspectRatio (float), and
+     * when present chromaticities and timecode, as the C++ library names
+     * them */
+    const uint8_t *disp, *aspect, *chroma, *timecode;
 } fp_exr_hpart_t;
 
 /* Note one attribute (name, type, `size` bytes of value at v). */
