@@ -125,6 +125,11 @@ int64_t fp_exr_mem_write(exr_const_context_t ctxt, void *userdata,
                          const void *buffer, uint64_t sz, uint64_t offset,
                          exr_stream_error_func_ptr_t error_cb);
 
+/* A read context over io (an image in memory, io->rd), its header read
+ * strictly and within the image budget's axis: FP_OK, or one line
+ * naming the file and frame with the library's reason (*ctx NULL). */
+int fp_exr_start_read(fp_exr_io_t *io, exr_context_t *ctx, const char *where, long frame);
+
 /* ------------------------------------------------------------ chunk workers
  * (exr_common.c) */
 
