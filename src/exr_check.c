@@ -14,7 +14,12 @@
  *     the memory a frame costs is bounded by its size);
  *   - each chunk of the part's highest resolution against the bytes its
  *     lines need: an uncompressed chunk must hold exactly them, a
- *     compressed one at least them over its codec's largest ratio.
+ *     compressed one at least them over its codec's largest ratio;
+ *   - what OpenEXR's C library reads and its C++ library refuses (so that
+ *     the path a file takes does not decide whether it is refused): a
+ *     channel list that does not end with the attribute, parts of a
+ *     multipart file that differ in the attributes they share, chunks
+ *     that share bytes.
  * Bytes this walk cannot frame (a name without its NUL, an attribute past
  * the end) are left to the library, whose message says what is wrong. */
 #include "exr_internal.h"
@@ -229,23 +234,26 @@ static int walk_channels(const fp_exr_hpart_t *sp, chan_sum_t *cs, int64_t xa, i
     return 0;
 }
 
-/* Whether two parts of a multipart file disagree on an attribute they
- * must share (OpenEXR's MultiPartInputFile, checkSharedAttributesValues):
- * its name, else NULL.  displayWindow and pixelAspectRatio in every part
- * (compared as values: a float -0 is 0, a NaN is no value), chromaticities
- * and timecode when the part has them. */
+/* n little-endian floats compared as values (a -0 is 0, a NaN differs
+ * from everything), as OpenEXR's C++ library compares them. */
 static int floats_differ(const uint8_t *a, const uint8_t *b, int n)
 {
     for (int i = 0; i < n; ++i) {
         float x, y;
-        memcpy(&x, a + 4 * i, 4); /* little-endian hosts (fp_exr_rd_*) */
-        memcpy(&y, b + 4 * i, 4);
+        uint32_t u = fp_exr_rd_u32(a + 4 * i), v = fp_exr_rd_u32(b + 4 * i);
+        memcpy(&x, &u, 4);
+        memcpy(&y, &v, 4);
         if (x != y)
             return 1;
     }
     return 0;
 }
 
+/* Whether a part of a multipart file disagrees with part 0 on an
+ * attribute they must share (OpenEXR's MultiPartInputFile refuses such a
+ * file, checkSharedAttributesValues): its name, else NULL.  displayWindow
+ * and pixelAspectRatio in every part, chromaticities and timecode when the
+ * part has them (as the C++ library names them). */
 static const char *shared_differs(const fp_exr_hpart_t *p0, const fp_exr_hpart_t *sp)
 {
     if (p0->disp && sp->disp && memcmp(p0->disp, sp->disp, 16) != 0)
