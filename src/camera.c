@@ -377,9 +377,10 @@ static int parse_camera_text(const fp_frame_info_t *info, const char *where_file
 }
 
 /* Whether tok is a decimal number as a .chan holds them: [+-] digits [.
- * digits] [e [+-] digits].  strtod also takes hexadecimal ("0x10" is 16),
- * "inf", "nan" and "infinity", which no camera exporter writes: a column
- * mangled into one of them is a corrupt file, not a camera. */
+ * digits] [e [+-] digits].  strtod also takes hexadecimal ("0x10" is 16,
+ * "0x1p3" is 8), which no camera exporter writes: a column mangled into
+ * one is a corrupt file, not a camera.  (Its "inf" and "nan" are refused
+ * by name, as not finite.) */
 static int chan_decimal(const char *tok)
 {
     const char *s = tok + (*tok == '+' || *tok == '-');
@@ -433,7 +434,7 @@ static int read_chan(const char *path, long frame, double v[7])
         for (char *tok = strtok(s, " \t"); tok; tok = strtok(NULL, " \t"), n++) {
             char *end;
             double x = strtod(tok, &end);
-            if (end == tok || *end || !chan_decimal(tok)) {
+            if (end == tok || *end || (isfinite(x) && !chan_decimal(tok))) {
                 rc = fp_error("%s:%d: column %d '%.40s' is not a number (expected 8 decimal "
                               "numbers: 'frame tx ty tz rx ry rz vfov')", path, lineno, n + 1, tok);
                 break;
