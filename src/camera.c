@@ -376,6 +376,32 @@ static int parse_camera_text(const fp_frame_info_t *info, const char *where_file
     return FP_OK;
 }
 
+/* Whether tok is a decimal number as a .chan holds them: [+-] digits [.
+ * digits] [e [+-] digits].  strtod also takes hexadecimal ("0x10" is 16,
+ * "0x1p3" is 8), which no camera exporter writes: a column mangled into
+ * one is a corrupt file, not a camera.  (Its "inf" and "nan" are refused
+ * by name, as not finite.) */
+static int chan_decimal(const char *tok)
+{
+    const char *s = tok + (*tok == '+' || *tok == '-');
+    int digits = 0;
+    while (*s >= '0' && *s <= '9')
+        s++, digits++;
+    if (*s == '.')
+        for (s++; *s >= '0' && *s <= '9'; s++)
+            digits++;
+    if (!digits)
+        return 0;
+    if (*s == 'e' || *s == 'E') {
+        s += 1 + (s[1] == '+' || s[1] == '-');
+        if (*s < '0' || *s > '9')
+            return 0;
+        while (*s >= '0' && *s <= '9')
+            s++;
+    }
+    return *s == 0;
+}
+
 /* One line of a Nuke .chan file for `frame`: frame tx ty tz rx ry rz vfov.
  * Every line is checked as the camera options are (finite numbers, the
  * rotations in --camera-rot's range, the FOV in --vfov's), so a bad file is
@@ -408,9 +434,9 @@ static int read_chan(const char *path, long frame, double v[7])
         for (char *tok = strtok(s, " \t"); tok; tok = strtok(NULL, " \t"), n++) {
             char *end;
             double x = strtod(tok, &end);
-            if (end == tok || *end) {
-                rc = fp_error("%s:%d: column %d '%.40s' is not a number (expected 'frame tx ty "
-                              "tz rx ry rz vfov')", path, lineno, n + 1, tok);
+            if (end == tok || *end || (isfinite(x) && !chan_decimal(tok))) {
+                rc = fp_error("%s:%d: column %d '%.40s' is not a number (expected 8 decimal "
+                              "numbers: 'frame tx ty tz rx ry rz vfov')", path, lineno, n + 1, tok);
                 break;
             }
             if (n < 8)

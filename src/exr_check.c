@@ -14,7 +14,12 @@
  *     the memory a frame costs is bounded by its size);
  *   - each chunk of the part's highest resolution against the bytes its
  *     lines need: an uncompressed chunk must hold exactly them, a
- *     compressed one at least them over its codec's largest ratio.
+ *     compressed one at least them over its codec's largest ratio;
+ *   - what OpenEXR's C library reads and its C++ library refuses (so that
+ *     the path a file takes does not decide whether it is refused): a
+ *     channel list that does not end with the attribute, parts of a
+ *     multipart file that differ in the attributes they share, chunks
+ *     that share bytes.
  * Bytes this walk cannot frame (a name without its NUL, an attribute past
  * the end) are left to the library, whose message says what is wrong. */
 #include "exr_internal.h"
@@ -157,6 +162,15 @@ void fp_exr_hpart_take(fp_exr_hpart_t *sp, const char *name, const char *type,
     } else if (strcmp(name, "channels") == 0 && strcmp(type, "chlist") == 0) {
         sp->chans = v;
         sp->chans_size = size;
+    } else if (strcmp(name, "displayWindow") == 0 && strcmp(type, "box2i") == 0 && size == 16) {
+        sp->disp = v;
+    } else if (strcmp(name, "pixelAspectRatio") == 0 && strcmp(type, "float") == 0 && size == 4) {
+        sp->aspect = v;
+    } else if (strcmp(name, "chromaticities") == 0 && strcmp(type, "chromaticities") == 0 &&
+               size == 32) {
+        sp->chroma = v;
+    } else if (strcmp(name, "timecode") == 0 && strcmp(type, "timecode") == 0 && size == 8) {
+        sp->timecode = v;
     }
 }
 
@@ -178,7 +192,11 @@ static int take_name(const uint8_t *b, size_t size, size_t *pos, char *out)
 }
 
 /* The channels of a part: count, and the decoded bytes of the lines
- * [ya, yb) over the columns [xa, xb) (sampled as OpenEXR samples). */
+ * [ya, yb) over the columns [xa, xb) (sampled as OpenEXR samples).  -1
+ * for an entry the library should name; -2 when the list does not end
+ * with its NUL at its last byte: OpenEXR's C library reads such a list
+ * (up to the attribute's size), the C++ library reads on into the next
+ * attribute, so the file is corrupt and only one of them would say so. */
 typedef struct chan_sum_t {
     int n;
     int max_bpe;
@@ -210,8 +228,122 @@ static int walk_channels(const fp_exr_hpart_t *sp, chan_sum_t *cs, int64_t xa, i
         cs->n++;
         total += sampled_count(xa, xb, xs) * sampled_count(ya, yb, ys) * bpe;
     }
+    if (q + 1 != end)
+        return -2;
     *bytes = total;
     return 0;
+}
+
+/* n little-endian floats compared as values (a -0 is 0, a NaN differs
+ * from everything), as OpenEXR's C++ library compares them. */
+static int floats_differ(const uint8_t *a, const uint8_t *b, int n)
+{
+    for (int i = 0; i < n; ++i) {
+        float x, y;
+        uint32_t u = fp_exr_rd_u32(a + 4 * i), v = fp_exr_rd_u32(b + 4 * i);
+        memcpy(&x, &u, 4);
+        memcpy(&y, &v, 4);
+        if (x != y)
+            return 1;
+    }
+    return 0;
+}
+
+/* Whether a part of a multipart file disagrees with part 0 on an
+ * attribute they must share (OpenEXR's MultiPartInputFile refuses such a
+ * file, checkSharedAttributesValues): its name, else NULL.  displayWindow
+ * and pixelAspectRatio in every part, chromaticities and timecode when the
+ * part has them (as the C++ library names them). */
+static const char *shared_differs(const fp_exr_hpart_t *p0, const fp_exr_hpart_t *sp)
+{
+    if (p0->disp && sp->disp && memcmp(p0->disp, sp->disp, 16) != 0)
+        return "displayWindow";
+    if (p0->aspect && sp->aspect && floats_differ(p0->aspect, sp->aspect, 1))
+        return "pixelAspectRatio";
+    if (sp->chroma && (!p0->chroma || floats_differ(p0->chroma, sp->chroma, 8)))
+        return "chromaticities";
+    if (sp->timecode && (!p0->timecode || memcmp(p0->timecode, sp->timecode, 8) != 0))
+        return "timecode";
+    return NULL;
+}
+
+/* ------------------------------------------------------------ overlaps */
+
+/* One chunk's bytes in the file: [start, end). */
+typedef struct chunk_span_t {
+    uint64_t start, end;
+} chunk_span_t;
+
+static int span_cmp(const void *a, const void *b)
+{
+    const chunk_span_t *x = a, *y = b;
+    return x->start < y->start ? -1 : x->start > y->start;
+}
+
+/* Where entry i of part p's table points, and the end of that chunk (its
+ * header and the bytes its size field claims): 0, or -1 when it cannot be
+ * framed there (the library names that). */
+static int chunk_span(const uint8_t *b, size_t size, size_t table_end, int multipart,
+                      const fp_exr_hpart_t *sp, size_t table, int64_t i, chunk_span_t *out)
+{
+    uint64_t off = fp_exr_rd_u64(b + table + (size_t) i * 8);
+    size_t hl = (multipart ? 4 : 0) + (sp->tiled ? 16 : 4) + 4;
+    if (off < table_end || off >= size || size - off < hl)
+        return -1;
+    int32_t packed = fp_exr_rd_i32(b + off + hl - 4);
+    if (packed < 0 || (uint64_t) packed > size - off - hl)
+        return -1;
+    out->start = off;
+    out->end = off + hl + (uint64_t) packed;
+    return 0;
+}
+
+/* No two chunks may share bytes.  A size field one too large lets a
+ * lenient decoder (deflate stops at its stream's end) read a chunk whose
+ * last byte is the next chunk's first, while OpenEXR's C++ library, which
+ * reads a scanline file's chunks one after the other, then finds the next
+ * chunk one byte late: the file is corrupt. */
+static int check_overlaps(const uint8_t *b, size_t size, size_t table_end, int multipart,
+                          const fp_exr_hpart_t *parts, int nparts, size_t tables,
+                          int64_t chunks, const char *where, long frame)
+{
+    chunk_span_t *sp = malloc((size_t) (chunks > 0 ? chunks : 1) * sizeof *sp);
+    if (!sp)
+        return fp_error("%s: frame %ld: out of memory", where, frame);
+    int64_t n = 0;
+    size_t table = tables;
+    for (int p = 0; p < nparts; ++p) {
+        for (int64_t i = 0; i < parts[p].chunk_count; ++i)
+            if (chunk_span(b, size, table_end, multipart, &parts[p], table, i, &sp[n]) == 0)
+                n++;
+        table += (size_t) parts[p].chunk_count * 8;
+    }
+    qsort(sp, (size_t) n, sizeof *sp, span_cmp);
+    int rc = FP_OK;
+    for (int64_t k = 0; k + 1 < n && rc == FP_OK; ++k) {
+        if (sp[k].end <= sp[k + 1].start)
+            continue;
+        /* name the chunk that runs over by its part and number */
+        int part = 0;
+        int64_t idx = 0;
+        table = tables;
+        for (int p = 0; p < nparts; ++p) {
+            for (int64_t i = 0; i < parts[p].chunk_count; ++i)
+                if (fp_exr_rd_u64(b + table + (size_t) i * 8) == sp[k].start) {
+                    part = p;
+                    idx = i;
+                }
+            table += (size_t) parts[p].chunk_count * 8;
+        }
+        rc = fp_error("%s: frame %ld: part %d: chunk %lld (at byte %llu, %llu bytes with its "
+                      "header) runs into the chunk at byte %llu (corrupt EXR: chunks do not "
+                      "share bytes)", where, frame, part, (long long) idx,
+                      (unsigned long long) sp[k].start,
+                      (unsigned long long) (sp[k].end - sp[k].start),
+                      (unsigned long long) sp[k + 1].start);
+    }
+    free(sp);
+    return rc;
 }
 
 /* ------------------------------------------------------------ the check */
@@ -297,8 +429,21 @@ int fp_exr_check_image(const void *buf, size_t size, const char *where, long fra
         snprintf(kind, sizeof kind, "part %d: data window", p);
         if (w < 1 || h < 1)
             goto unframed; /* an empty window: the library names it */
-        if (walk_channels(sp, &cs, 0, 1, 0, 1, &bytes) != 0)
+        int wc = walk_channels(sp, &cs, 0, 1, 0, 1, &bytes);
+        if (wc == -2) {
+            rc = fp_error("%s: frame %ld: part %d: channel list of %u bytes does not end with "
+                          "the NUL after its last channel (corrupt EXR header)", where, frame,
+                          p, (unsigned) sp->chans_size);
+            goto done;
+        }
+        if (wc != 0)
             goto unframed;
+        const char *shared = p > 0 ? shared_differs(&parts[0], sp) : NULL;
+        if (shared) {
+            rc = fp_error("%s: frame %ld: part %d: %s differs from part 0's (the parts of a "
+                          "multipart EXR share it; corrupt EXR header)", where, frame, p, shared);
+            goto done;
+        }
         if ((rc = fp_image_limits_check(where, frame, kind, w, h, cs.n, cs.max_bpe)) != FP_OK)
             goto done;
         if (sp->tiled && (sp->tx > (uint32_t) lim->max_dim || sp->ty > (uint32_t) lim->max_dim))
@@ -405,6 +550,7 @@ int fp_exr_check_image(const void *buf, size_t size, const char *where, long fra
         }
         table += (size_t) sp->chunk_count * 8;
     }
+    rc = check_overlaps(b, size, table_end, multipart, parts, nparts, pos, chunks, where, frame);
     goto done;
 unframed:
     rc = FP_OK;

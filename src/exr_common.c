@@ -3,6 +3,7 @@
  * encode chunks in parallel, and compression names. */
 #include "exr_internal.h"
 #include "fp.h"
+#include "fp_limits.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
@@ -157,6 +158,35 @@ int fp_exr_threads(void)
 
 /* How many workers a part of `pixels` pixels in `chunks` chunks gets: one
  * for small images, where starting threads costs more than it saves. */
+int fp_exr_start_read(fp_exr_io_t *io, exr_context_t *ctx, const char *where, long frame)
+{
+    char lt[512];
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = fp_exr_lib_error_handler;
+    init.user_data = io;
+    init.read_fn = fp_exr_mem_read;
+    init.size_fn = fp_exr_mem_size;
+    const fp_image_limits_t *lim = fp_image_limits();
+    int max_dim = lim->max_dim < INT32_MAX ? (int) lim->max_dim : INT32_MAX;
+    init.max_image_width = max_dim;
+    init.max_image_height = max_dim;
+    init.max_tile_width = max_dim;
+    init.max_tile_height = max_dim;
+    /* A missing chunk must fail loudly, not be searched for.  A strict
+     * header: without it the library drops an attribute it cannot parse
+     * (lineOrder 99, compression 99) and puts its default in place, so a
+     * bad header would pass as another file. */
+    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION |
+                 EXR_CONTEXT_FLAG_STRICT_HEADER;
+    exr_result_t rv = exr_start_read(ctx, where, &init);
+    if (rv != EXR_ERR_SUCCESS) {
+        *ctx = NULL;
+        return fp_error("%s: frame %ld: cannot read EXR header (%s)", where, frame,
+                        fp_exr_lib_text(io, rv, lt, sizeof lt));
+    }
+    return FP_OK;
+}
+
 int fp_exr_workers(int64_t pixels, int64_t chunks)
 {
     int n = fp_exr_threads();

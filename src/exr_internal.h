@@ -125,6 +125,11 @@ int64_t fp_exr_mem_write(exr_const_context_t ctxt, void *userdata,
                          const void *buffer, uint64_t sz, uint64_t offset,
                          exr_stream_error_func_ptr_t error_cb);
 
+/* A read context over io (an image in memory, io->rd), its header read
+ * strictly and within the image budget's axis: FP_OK, or one line
+ * naming the file and frame with the library's reason (*ctx NULL). */
+int fp_exr_start_read(fp_exr_io_t *io, exr_context_t *ctx, const char *where, long frame);
+
 /* ------------------------------------------------------------ chunk workers
  * (exr_common.c) */
 
@@ -192,6 +197,12 @@ typedef struct fp_exr_hpart_t {
     int64_t chunk_count;       /* the chunkCount attribute (has_cc) */
     const uint8_t *chans;      /* the channels attribute's value, or NULL */
     uint32_t chans_size;
+    /* the values of the attributes a multipart file's parts must share
+     * (OpenEXR's MultiPartInputFile refuses a file whose parts differ in
+     * them), or NULL: displayWindow (box2i), pixelAspectRatio (float), and
+     * when present chromaticities and timecode, as the C++ library names
+     * them */
+    const uint8_t *disp, *aspect, *chroma, *timecode;
 } fp_exr_hpart_t;
 
 /* Note one attribute (name, type, `size` bytes of value at v). */

@@ -811,10 +811,21 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
         goto done;
     /* The C library has no DWA codec (and misreads float channels of
      * B44): such an input is first rewritten with those parts uncompressed
-     * by the C++ library (exr_dwa.h). */
+     * by the C++ library (exr_dwa.h).  The C library reads its header
+     * first: the C++ library trusts a corrupt attribute's size (a box2f of
+     * 64 bytes, a displayWindow of none) and reads the next bytes as
+     * attributes, whose sizes it then allocates, gigabytes from a few
+     * bytes; the C library says what is wrong, as it does for any other
+     * input. */
     int verdict = fp_dwa_probe(buf, size);
     void *plain = NULL;
     size_t plain_size = 0;
+    if (verdict) {
+        if (fp_exr_start_read(&f->io, &f->ctx, where, frame) != FP_OK)
+            goto done;
+        exr_finish(&f->ctx);
+        f->ctx = NULL;
+    }
     if (verdict && fp_dwa_decode(buf, size, verdict, where, frame, &plain, &plain_size,
                                  &f->dwa_comp, &f->dwa_num_parts) != FP_OK)
         goto done;
@@ -825,31 +836,8 @@ int fp_exr_read_memory(const void *buf, size_t size, const char *where_file,
         f->io.rd = plain;
         f->io.rd_size = plain_size;
     }
-
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = fp_exr_lib_error_handler;
-    init.user_data = &f->io;
-    init.read_fn = fp_exr_mem_read;
-    init.size_fn = fp_exr_mem_size;
-    const fp_image_limits_t *lim = fp_image_limits();
-    int max_dim = lim->max_dim < INT32_MAX ? (int) lim->max_dim : INT32_MAX;
-    init.max_image_width = max_dim;
-    init.max_image_height = max_dim;
-    init.max_tile_width = max_dim;
-    init.max_tile_height = max_dim;
-    /* A missing chunk must fail loudly, not be searched for.  A strict
-     * header: without it the library drops an attribute it cannot parse
-     * (lineOrder 99, compression 99) and puts its default in place, so a
-     * bad header would pass as another file. */
-    init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION |
-                 EXR_CONTEXT_FLAG_STRICT_HEADER;
-    rv = exr_start_read(&f->ctx, where, &init);
-    if (rv != EXR_ERR_SUCCESS) {
-        f->ctx = NULL;
-        fp_error("%s: frame %ld: cannot read EXR header (%s)", where, frame,
-                 fp_exr_lib_text(&f->io, rv, lt, sizeof lt));
+    if (fp_exr_start_read(&f->io, &f->ctx, where, frame) != FP_OK)
         goto done;
-    }
     rv = exr_get_count(f->ctx, &f->num_parts);
     if (rv != EXR_ERR_SUCCESS || f->num_parts < 1) {
         fp_error("%s: frame %ld: cannot read EXR header (%s)", where, frame,

@@ -76,6 +76,50 @@ fails "an uncompressed chunk 8 bytes short: named" 1 \
 fails "a ZIP chunk with a negative size: named" 1 "zshort\.exr: frame 1" \
   "$T/zshort.out.exr" "$FOGPIPE" -i "$T/zshort.exr" -o "$T/zshort.out.exr"
 
+# A chunk whose size field is one too large: its last byte is the next
+# chunk's first (ZIP's deflate stops at its stream's end, so the bytes
+# decode; OpenEXR's C++ library finds the next chunk one byte late).
+for c in zip dwaa; do
+  "$M" chunk "$T/$c.exr" "$T/over_$c.exr" 0 1
+  fails "$c: a chunk that runs into the next: refused" 1 \
+    "over_$c\.exr: frame 1: part 0: chunk 0 \(at byte [0-9]+, [0-9]+ bytes with its header\) runs into the chunk at byte [0-9]+ \(corrupt EXR" \
+    "$T/over_$c.out.exr" "$FOGPIPE" -i "$T/over_$c.exr" -o "$T/over_$c.out.exr"
+done
+cat "$S/scene.0001.exr" "$T/over_zip.exr" > "$T/over.stream"
+fails "in a stream: the frame whose chunks overlap named" 1 "<stdin>: frame 2: part 0: chunk 0 .* runs into" - \
+  sh -c '"$FOGPIPE" < "$1" > "$2"' sh "$T/over.stream" "$T/over.out.stream"
+
+# ---------------------------------------------------------------- headers
+# What OpenEXR's C library reads one way and its C++ library another is
+# refused on both paths, with what is wrong; a corrupt header never
+# reaches the C++ library, which allocates the sizes it reads from one
+# ("out of memory" from a 9 KB file).
+for c in zip dwaa b44; do
+  "$M" attr-cut "$T/$c.exr" "$T/chl_$c.exr" channels 1
+  fails "$c: a channel list without its closing NUL: refused" 1 \
+    "chl_$c\.exr: frame 1: part 0: channel list of [0-9]+ bytes does not end with the NUL after its last channel" \
+    "$T/chl_$c.out.exr" "$FOGPIPE" -i "$T/chl_$c.exr" -o "$T/chl_$c.out.exr"
+  "$M" attr-type "$T/$c.exr" "$T/box_$c.exr" worldToNDC m33f
+  fails "$c: worldToNDC typed m33f (64 bytes): the attribute named" 1 \
+    "box_$c\.exr: frame 1: cannot read EXR header \(Attribute 'worldToNDC': Invalid size 64" \
+    "$T/box_$c.out.exr" "$FOGPIPE" -i "$T/box_$c.exr" -o "$T/box_$c.out.exr"
+  "$M" attr-cut "$T/$c.exr" "$T/disp_$c.exr" displayWindow 16
+  fails "$c: a displayWindow of no bytes: the attribute named" 1 \
+    "disp_$c\.exr: frame 1: cannot read EXR header \(Attribute 'displayWindow': Invalid size 0" \
+    "$T/disp_$c.out.exr" "$FOGPIPE" -i "$T/disp_$c.exr" -o "$T/disp_$c.out.exr"
+done
+check "worldToNDC typed m33f in DWAA: cheap" measured "$T/box_dwaa.exr" 40000 500
+# Parts of a multipart file that disagree on their displayWindow (OpenEXR's
+# C++ library refuses the file; its C library reads it).
+for c in zip dwaa; do
+  "$OIIOTOOL" "$S/scene.0001.exr" "$S/scene.0002.exr" --chnames other.R,other.G,other.B,other.A,other.Z \
+    --siappend --compression "$c" -o "$T/mp_$c.exr"
+  "$M" attr-int "$T/mp_$c.exr" "$T/mpdisp_$c.exr" 1 displayWindow 3 4000
+  fails "$c multipart: part 1's displayWindow differs from part 0's: refused" 1 \
+    "mpdisp_$c\.exr: frame 1: part 1: displayWindow differs from part 0's \(the parts of a multipart EXR share it" \
+    "$T/mpdisp_$c.out.exr" "$FOGPIPE" -i "$T/mpdisp_$c.exr" -o "$T/mpdisp_$c.out.exr"
+done
+
 # ---------------------------------------------------------------- codec failures
 # The last chunk of float B44 longer than its data: OpenEXR's C++ library
 # refuses it, and no other decoder is tried.

@@ -1,6 +1,6 @@
 /* exr_mangle: hostile EXR files made from good ones, and the cost of
  * reading them, for tests/exr_limits.sh (single-part scanline files, as
- * fogpipe writes them).
+ * fogpipe writes them; attr-int also multipart ones).
  *
  *   exr_mangle window IN OUT X0 Y0 X1 Y1   the dataWindow claims another size
  *   exr_mangle chunk IN OUT K DELTA         chunk K's size field changed by
@@ -10,6 +10,12 @@
  *                                           (TYPE as long as the old one)
  *   exr_mangle empty-attr IN OUT NAME TYPE  attribute NAME of type TYPE and
  *                                           no bytes added to the header
+ *   exr_mangle attr-cut IN OUT NAME K       attribute NAME's value less its
+ *                                           last K bytes (its size and the
+ *                                           offsets follow)
+ *   exr_mangle attr-int IN OUT PART NAME I V  the I-th 32-bit word of
+ *                                           attribute NAME of part PART set
+ *                                           to V (multipart files too)
  *   exr_mangle measure FILE                 read FILE with fp_exr_read_file
  *                                           in a child process; prints
  *                                           "rc=R rss_kb=K base_kb=B ms=M":
@@ -76,29 +82,45 @@ static void put32(uint8_t *p, uint32_t v)
         p[i] = (uint8_t) (v >> (8 * i));
 }
 
-/* Walk the (single-part) header: the value of attribute `name` (its type
- * at *type_at), and where the header ends (*end: the offset table). */
+/* Walk the headers (one, or a multipart file's list): the value of
+ * attribute `name` of part `part` (its type at *type_at, its size field at
+ * *size_at), and where the headers end (*end: the offset tables). */
+static size_t find_attr_in(const uint8_t *b, size_t n, int part, const char *name,
+                           size_t *type_at, size_t *size_at, size_t *end)
+{
+    size_t pos = 8, found = 0;
+    int multipart = (u32(b + 4) & 0x1000) != 0;
+    for (int p = 0; pos < n; ++p) {
+        if (multipart && b[pos] == 0)
+            break; /* the empty header that ends the list */
+        while (pos < n && b[pos]) {
+            const char *nm = (const char *) b + pos;
+            pos += strlen(nm) + 1;
+            size_t ty = pos;
+            pos += strlen((const char *) b + pos) + 1;
+            uint32_t sz = u32(b + pos);
+            if (p == part && name && strcmp(nm, name) == 0) {
+                found = pos + 4;
+                if (type_at)
+                    *type_at = ty;
+                if (size_at)
+                    *size_at = pos;
+            }
+            pos += 4 + sz;
+        }
+        pos++;
+        if (!multipart)
+            break;
+    }
+    if (end)
+        *end = multipart ? pos + 1 : pos;
+    return found;
+}
+
 static size_t find_attr(const uint8_t *b, size_t n, const char *name, size_t *type_at,
                         size_t *end)
 {
-    size_t pos = 8, found = 0;
-    while (pos < n && b[pos]) {
-        const char *nm = (const char *) b + pos;
-        pos += strlen(nm) + 1;
-        size_t ty = pos;
-        pos += strlen((const char *) b + pos) + 1;
-        uint32_t sz = u32(b + pos);
-        pos += 4;
-        if (name && strcmp(nm, name) == 0) {
-            found = pos;
-            if (type_at)
-                *type_at = ty;
-        }
-        pos += sz;
-    }
-    if (end)
-        *end = pos + 1;
-    return found;
+    return find_attr_in(b, n, 0, name, type_at, NULL, end);
 }
 
 static int measure(const char *path)
@@ -195,6 +217,39 @@ int main(int argc, char **argv)
         free(b);
         return 0;
     }
-    fprintf(stderr, "usage: exr_mangle window|chunk|attr-type|empty-attr|measure ... (see its source)\n");
+    if (argc == 6 && strcmp(argv[1], "attr-cut") == 0) {
+        size_t k = (size_t) strtoul(argv[5], NULL, 10), size_at = 0;
+        uint8_t *b = slurp(argv[2], &n, 0);
+        size_t v = find_attr_in(b, n, 0, argv[4], NULL, &size_at, &end);
+        if (!v || u32(b + size_at) < k)
+            return 2;
+        size_t cut_at = v + u32(b + size_at) - k;
+        put32(b + size_at, u32(b + size_at) - (uint32_t) k);
+        /* the offsets (single part: up to the first chunk) move back by k */
+        uint64_t first = (uint64_t) u32(b + end) | (uint64_t) u32(b + end + 4) << 32;
+        for (size_t t = end; t + 8 <= first && t + 8 <= n; t += 8) {
+            uint64_t off = ((uint64_t) u32(b + t) | (uint64_t) u32(b + t + 4) << 32) - k;
+            put32(b + t, (uint32_t) off);
+            put32(b + t + 4, (uint32_t) (off >> 32));
+        }
+        memmove(b + cut_at, b + cut_at + k, n - cut_at - k);
+        spit(argv[3], b, n - k);
+        free(b);
+        return 0;
+    }
+    if (argc == 8 && strcmp(argv[1], "attr-int") == 0) {
+        uint8_t *b = slurp(argv[2], &n, 0);
+        size_t size_at = 0;
+        size_t v = find_attr_in(b, n, atoi(argv[4]), argv[5], NULL, &size_at, NULL);
+        long i = strtol(argv[6], NULL, 10);
+        if (!v || i < 0 || (uint64_t) (i + 1) * 4 > u32(b + size_at))
+            return 2;
+        put32(b + v + 4 * (size_t) i, (uint32_t) strtol(argv[7], NULL, 10));
+        spit(argv[3], b, n);
+        free(b);
+        return 0;
+    }
+    fprintf(stderr, "usage: exr_mangle window|chunk|attr-type|empty-attr|attr-cut|attr-int|measure "
+                    "... (see its source)\n");
     return 2;
 }

@@ -36,6 +36,15 @@ rm -f "$T/big.preset"
 printf '1 0 1 5 0 0 0 40\n2 0 1 5 0\0000 0 40\n' > "$T/nul.chan"
 fails "a NUL byte in a .chan: refused with its line" 1 \
   "^fogpipe: $T/nul.chan:2: a NUL byte" "$O" run --camera-chan "$T/nul.chan" -i "$IN" -o "$O"
+# Columns strtod reads but no .chan holds: hexadecimal (0x10 is 16, 0x1p3 8).
+printf '1 0 2 0x10 0 180 0 45\n' > "$T/hex.chan"
+fails "a hexadecimal .chan column: refused with its line and column" 1 \
+  "^fogpipe: $T/hex.chan:1: column 4 '0x10' is not a number \(expected 8 decimal numbers" \
+  "$O" run --camera-chan "$T/hex.chan" -i "$IN" -o "$O"
+printf '3 0 2 -10 0x1p3 180 0 45\n' > "$T/hexf.chan"
+fails "a hexadecimal float in a .chan: refused with its line and column" 1 \
+  "^fogpipe: $T/hexf.chan:1: column 5 '0x1p3' is not a number" \
+  "$O" run --camera-chan "$T/hexf.chan" -i "$IN" -o "$O"
 # A sparse file beyond the image budget (4 GiB and 16 MiB by default).
 if truncate -s 5G "$T/huge.exr" 2>/dev/null; then
   fails "a 5 GiB fogmap: refused before it is read" 1 \
