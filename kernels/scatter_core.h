@@ -745,6 +745,26 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
         fp_real rx = qx - tc * dx, ry = qy - tc * dy, rz = qz - tc * dz;
         fp_real D = fmax(sqrt(rx * rx + ry * ry + rz * rz), (fp_real)1e-6 * (1 + fabs(tc)));
         fp_real th0 = atan2(ta - tc, D), th1 = atan2(tl - tc, D);
+        /* A Cycles spot's cone and an area light's front half-space: the
+         * panels cover only their support along the ray (its hard edge a
+         * panel's end, not inside one), |theta - theta_a| <= acos(cos_out
+         * / R) as in fp_light_fast.  (fogpipe's spots keep the whole range.) */
+        int ty = (int)row[FP_LL_TYPE];
+        if ((ty == FP_LIGHT_AREA || (ty == FP_LIGHT_SPOT && row[FP_LL_PROFILE] != 0)) &&
+            row[FP_LL_COS_OUT] >= 0) {
+            fp_real na = -(rx * row[FP_LL_AXIS] + ry * row[FP_LL_AXIS + 1] +
+                           rz * row[FP_LL_AXIS + 2]) / D;
+            fp_real da = dx * row[FP_LL_AXIS] + dy * row[FP_LL_AXIS + 1] + dz * row[FP_LL_AXIS + 2];
+            fp_real R = sqrt(na * na + da * da), co = row[FP_LL_COS_OUT];
+            const fp_real tpi = (fp_real)6.283185307179586;
+            fp_real tha = atan2(da, na);
+            tha += tpi * floor(((fp_real)0.5 * (th0 + th1) - tha) / tpi + (fp_real)0.5);
+            fp_real ao = acos(fmin(co / fmax(R, (fp_real)1e-30), (fp_real)1));
+            th0 = fmax(th0, tha - ao);
+            th1 = fmin(th1, tha + ao);
+            if (!(R > co) || !(th1 > th0))
+                continue;
+        }
         /* The phase function's peak (mu = -sin(theta) -> 1 for g > 0, at
          * theta = -pi/2; mirrored for g < 0) is about 1 - |g| wide in
          * theta: with e the angle from the peak, panels grow

@@ -223,7 +223,7 @@ static void test_gain_models(void **state)
             e += (d > 0 ? d / (t2 * sqrt(t2)) : 0) * 2 * M_PI * rho * R / n;
         }
         if (d == 0)
-            e = 2 * M_PI / R;   /* the limit: int 2 pi rho d / t^3 -> 2 pi / R as d -> 0+ */
+            e = 2 * M_PI;   /* the limit: int 2 pi rho d / t^3 = 2 pi (1 - d / sqrt(d^2 + R^2)) */
         e /= M_PI * R * R;
         double got = d > 0 ? fp_light_gain(pt, 0, 1, 0, d) / (d * d)
                            : 2 / (R * R);   /* gain / d^2 at d -> 0: 2 / (s (s + d)) */
@@ -346,7 +346,7 @@ static void test_kinds_along_rays(void **state)
                 unit(d);
                 double len = 30, S[3];
                 ray(&r, o, d, len, S);
-                double want = brute_light(&r, r.sd.lights, o, d, len, 400000);
+                double want = brute_light(&r, r.sd.lights, o, d, len, 150000);
                 double e = fabs(S[0] - want) / fmax(want, 1e-4);
                 worst[qi] = fmax(worst[qi], e);
                 if (!(e <= 2e-3))
@@ -517,7 +517,7 @@ static void test_cull_frame(void **state)
 {
     (void)state;
     frame_t f;
-    frame_make(&f, 48, 32);
+    frame_make(&f, 40, 30);
     size_t n = (size_t)f.w * f.h;
     float *all = malloc(n * 4 * sizeof *all), *cut = malloc(n * 4 * sizeof *cut);
     float *cl_all = malloc(n * 4 * sizeof *cl_all), *cl_cut = malloc(n * 4 * sizeof *cl_cut);
@@ -535,17 +535,18 @@ static void test_cull_frame(void **state)
     for (int qi = 0; qi < 2; qi++) {
         const char *E = "1e-4";
         rig_t a, b;
-        open_street(&a, 256, "0", quads[qi]);
-        open_street(&b, 256, E, quads[qi]);
+        int nl = qi ? 64 : 256;   /* the panels' C path is the slow one */
+        open_street(&a, nl, "0", quads[qi]);
+        open_street(&b, nl, E, quads[qi]);
         commit_frame(&a, &f);
         commit_frame(&b, &f);
         assert_int_equal(fp_scatter_process(&a.sd, &a.fog, &f.v, f.depth, all), FP_OK);
         assert_int_equal(fp_scatter_process(&b.sd, &b.fog, &f.v, f.depth, cut), FP_OK);
         double smax, e = max_channel_diff(all, cut, n, &smax);
-        print_message("256 lamps, %s rule, C: --light-cull %s changes the fog layer by at most "
-                      "%.3g (S up to %.3g; bound %s)\n", quads[qi], E, e, smax, E);
+        print_message("%d lamps, %s rule, C: --light-cull %s changes the fog layer by at most "
+                      "%.3g (S up to %.3g; bound %s)\n", nl, quads[qi], E, e, smax, E);
         assert_true(e <= 1e-4 * (1 + 1e-6));
-        assert_true(smax > 0.01);
+        assert_true(smax > 1e-3);
         if (have_cl) {
             assert_int_equal(fp_scatter_process_cl(&scl, &icl, &a.sd, &a.fog, &f.v, f.depth,
                                                    cl_all), FP_OK);
@@ -560,9 +561,9 @@ static void test_cull_frame(void **state)
                 dmax = fmax(dmax, d);
                 fail += !(d <= fmax(2e-3 * fabs(all[i]), 1e-4));
             }
-            print_message("256 lamps, %s rule, OpenCL: culling changes it by at most %.3g "
+            print_message("%d lamps, %s rule, OpenCL: culling changes it by at most %.3g "
                           "(bound %s, plus float rounding 1e-6); vs the C reference max |d| %.3g "
-                          "(tolerance 2e-3 relative or 1e-4)\n", quads[qi], ec, E, dmax);
+                          "(tolerance 2e-3 relative or 1e-4)\n", nl, quads[qi], ec, E, dmax);
             assert_true(ec <= 1e-4 + 1e-6);
             assert_int_equal(fail, 0);
         }
