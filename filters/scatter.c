@@ -312,15 +312,15 @@ const fp_option_t fp_scatter_options[] = {
       "mix:W,G (W Rayleigh + (1-W) Cornette-Shanks), mixhg:W,G; G > 0 scatters forward",
       set_phase, 0 },
     { "light", 0, FP_OPT_STRING, LI(light), 0, 0, NULL, 0, 0, NULL, "SPEC",
-      "a light, repeatable (any number): point:X,Y,Z:R,G,B:I[:RADIUS], "
-      "spot:X,Y,Z:R,G,B:I:DX,DY,DZ:INNER,OUTER[:RADIUS] (cone half-angles, degrees), "
-      "spot:X,Y,Z:R,G,B:I:DX,DY,DZ:cycles:SIZE,BLEND[:RADIUS] (Cycles 3.x: SIZE the full "
-      "angle, intensity c smoothstep(BLEND)), area:X,Y,Z:R,G,B:I:NX,NY,NZ:UX,UY,UZ:SU,SV"
-      "[:rectangle|ellipse] (one-sided, I along its normal N, times the cosine; Cycles: "
-      "power/4), dir:DX,DY,DZ:R,G,B:E (an extra sun: toward it, irradiance E; no shadow "
-      "map, screen shadows with --shadows screen); I is the radiant intensity (W/sr: "
-      "irradiance I/d^2; Cycles' point and spot: power/(4 pi)); RADIUS the soft size (no "
-      "1/d^2 peak within it); the fog between light and point attenuates it",
+      "a light, repeatable (any number; D, N, U: three numbers X,Y,Z): "
+      "point:X,Y,Z:R,G,B:I[:RADIUS], spot:X,Y,Z:R,G,B:I:D:INNER,OUTER[:RADIUS] (cone "
+      "half-angles, degrees), spot:X,Y,Z:R,G,B:I:D:cycles:SIZE,BLEND[:RADIUS] (Cycles 3.x: "
+      "SIZE the full angle, intensity c smoothstep(BLEND)), "
+      "area:X,Y,Z:R,G,B:I:N:U:SU,SV[:ellipse] (one-sided, I along its normal N times the "
+      "cosine, U its X axis; Cycles: power/4), dir:D:R,G,B:E (an extra sun: toward it, "
+      "irradiance E; no shadow map, screen shadows with --shadows screen); I is the radiant "
+      "intensity (W/sr: irradiance I/d^2; Cycles' point and spot: power/(4 pi)); RADIUS the "
+      "soft size (no 1/d^2 peak within it); the fog between light and point attenuates it",
       set_light, 0 },
     { "light-cull", 0, FP_OPT_REAL, LI(light_cull), 0, 0, "1e-4", 0, 1e6, NULL, "E",
       "each pixel pays for the local lights that reach it: lights are left out of a pixel "
