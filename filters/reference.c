@@ -39,6 +39,7 @@ const fp_option_t fp_reference_options[] = {
 
 static const float no_map[1] = { INFINITY };
 static const float no_grid[2] = { 0, 0 };
+static const double no_lights[FP_LL_STRIDE];
 
 #define TABLES(t) FP_TABLES3(fp_fog_tables_or_empty(t))
 
@@ -226,9 +227,9 @@ int fp_reference_grid_build(const fp_integrate_data_t *fog, const fp_scatter_dat
                 reach = fmax(reach, te);
             }
         }
-    int nl = sd ? (int)sd->lt[FP_LT_NLIGHTS] : 0;
-    for (int k = 0; k < nl && k < FP_LT_MAX_LIGHTS; k++) {
-        const double *pos = sd->lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE + FP_LL_POS;
+    int nl = sd && sd->lights ? (int)sd->lt[FP_LT_NLIGHTS] : 0;
+    for (int k = 0; k < nl; k++) {
+        const double *pos = sd->lights + (size_t)k * FP_LL_STRIDE + FP_LL_POS;
         double zero[3] = { 0, 0, 0 };
         grow_box(lo, hi, pos, zero, 0);
         reach = fmax(reach, sqrt((pos[0] - o[0]) * (pos[0] - o[0]) +
@@ -452,6 +453,7 @@ static void *c_entries(void *arg)
     const fp_fog_tables_t *t = job->fog->tables;
     const float *smap = job->sd && job->sd->smap ? job->sd->smap : no_map;
     const float *grid = job->g->cells ? job->g->cells : no_grid;
+    const double *lights = job->sd && job->sd->lights ? job->sd->lights : no_lights;
     int spp = job->p->reference.spp;
     uint32_t seed = (uint32_t)job->p->anim.seed;
     size_t chunk = (size_t)v->width;
@@ -464,7 +466,7 @@ static void *c_entries(void *arg)
             fp_view_origin_at(v, x, y, o);
             for (int s = 0; s < spp; s++) {
                 double S[3];
-                double tau = fp_ref_sample(job->fog->fp, TABLES(t), job->lt, smap, job->view,
+                double tau = fp_ref_sample(job->fog->fp, TABLES(t), job->lt, lights, smap, job->view,
                                            job->depth, v->width, v->height, job->g->rp, grid,
                                            seed, (uint32_t)i, (uint32_t)s, o[0],
                                            o[1], o[2], dir[0], dir[1], dir[2],
@@ -657,6 +659,15 @@ static int reference_cl(fp_reference_cl_t *s, const fp_params_t *p, const fp_sca
         lvf[i] = (float)(t ? t->lvf[i] : 0);
     cl_command_queue q = fp_cl_queue(s->cl);
     size_t ns = sd && sd->smap ? sd->smap_n : 1;
+    /* The lights' table in single precision (at least one row). */
+    size_t nlf = (size_t)(sd && sd->nlights > 0 ? sd->nlights : 1) * FP_LL_STRIDE;
+    float *lf = calloc(nlf, sizeof *lf);
+    if (!lf) {
+        fp_reference_grid_release(&g);
+        return fp_error("reference: out of memory");
+    }
+    for (size_t i = 0; sd && sd->lights && i < (size_t)sd->nlights * FP_LL_STRIDE; i++)
+        lf[i] = (float)sd->lights[i];
     size_t ng = g.cells ? 2 * (size_t)g.n[0] * g.n[1] * g.n[2] : 2;
     /* Launches of at most FP_REF_LAUNCH pixel-samples (fewer with
      * bounces): bands of entries (whole rows' worth), each through batches
@@ -687,7 +698,8 @@ static int reference_cl(fp_reference_cl_t *s, const fp_params_t *p, const fp_sca
         upload(s, &s->smap, &s->smap_n, sd && sd->smap ? sd->smap : no_map, ns * sizeof(float),
                "reference: shadow map") ||
         upload(s, &s->grid, &s->grid_n, g.cells ? g.cells : no_grid, ng * sizeof(float),
-               "reference: majorant grid"))
+               "reference: majorant grid") ||
+        upload(s, &s->lights, &s->lights_n, lf, nlf * sizeof(float), "reference: lights"))
         goto done;
     unsigned long serial = t ? t->serial : 0;
     if (!s->coef || s->tables != serial) {
@@ -713,7 +725,8 @@ static int reference_cl(fp_reference_cl_t *s, const fp_params_t *p, const fp_sca
                 FP_CL_ARG(k, 9, s->fp) || FP_CL_ARG(k, 10, s->lvi) || FP_CL_ARG(k, 11, s->lvf) ||
                 FP_CL_ARG(k, 12, s->coef) || FP_CL_ARG(k, 13, s->lt) ||
                 FP_CL_ARG(k, 14, s->smap) || FP_CL_ARG(k, 15, s->rp) || FP_CL_ARG(k, 16, s->grid) ||
-                FP_CL_ARG(k, 17, seed) || FP_CL_ARG(k, 18, b0) || FP_CL_ARG(k, 19, b1))
+                FP_CL_ARG(k, 17, seed) || FP_CL_ARG(k, 18, b0) || FP_CL_ARG(k, 19, b1) ||
+                FP_CL_ARG(k, 20, s->lights))
                 goto done;
             if (fp_cl_check(clEnqueueNDRangeKernel(q, k, 1, NULL, &global, NULL, 0, NULL, NULL),
                             "reference_fog") ||
@@ -729,6 +742,7 @@ static int reference_cl(fp_reference_cl_t *s, const fp_params_t *p, const fp_sca
     }
     rc = FP_OK;
 done:
+    free(lf);
     fp_reference_grid_release(&g);
     return rc;
 }
@@ -759,7 +773,7 @@ int fp_reference_process_cl(fp_reference_cl_t *s, const fp_params_t *p,
 void fp_reference_cl_release(fp_reference_cl_t *s)
 {
     cl_mem *mems[] = { &s->depth, &s->acc, &s->view, &s->fp, &s->lvi, &s->lvf,
-                       &s->coef, &s->lt, &s->smap, &s->rp, &s->grid, &s->pix };
+                       &s->coef, &s->lt, &s->smap, &s->rp, &s->grid, &s->pix, &s->lights };
     if (s->kernel)
         clReleaseKernel(s->kernel);
     for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)

@@ -123,10 +123,10 @@ int fp_reference_pixels(const fp_params_t *p, const fp_scatter_data_t *sd,
 typedef struct fp_reference_cl_t {
     fp_cl_t *cl;
     cl_kernel kernel;
-    cl_mem depth, acc, view, fp, lvi, lvf, coef, lt, smap, rp, grid, pix;
+    cl_mem depth, acc, view, fp, lvi, lvf, coef, lt, smap, rp, grid, pix, lights;
     size_t capacity;          /* pixels the depth buffer holds */
     size_t band;              /* entries of a band: acc, sum, part */
-    size_t coef_n, smap_n, grid_n, pix_n;
+    size_t coef_n, smap_n, grid_n, pix_n, lights_n;
     unsigned long tables;     /* serial of the fogmap tables on the device (0: none) */
     double *sum;              /* per pixel of the band: sums of S.rgb, tau and of their
                                  squares */

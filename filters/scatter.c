@@ -16,7 +16,14 @@
 
 _Static_assert(FP_LT_COUNT == FP_LT_COUNT_, "light parameter count");
 _Static_assert(FP_SCATTER_MAX_STEPS == FP_SCATTER_MAX_STEPS_, "segment limit");
-_Static_assert(FP_MAX_LIGHTS == FP_LT_MAX_LIGHTS, "light count");
+_Static_assert(FP_LL_STRIDE == FP_LL_STRIDE_, "light row");
+
+static void normalize3(double v[3])
+{
+    double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int i = 0; i < 3; i++)
+        v[i] /= n;
+}
 
 /* --phase iso | hg:G | cs:G | rayleigh | mix:W,G | mixhg:W,G */
 static int set_phase(fp_params_t *p, const fp_option_t *o, const char *value)
@@ -91,8 +98,6 @@ static int parse_reals(const char *s, size_t len, double *out, int n)
     return *at ? -1 : 0;
 }
 
-/* --light point:X,Y,Z:R,G,B:I
- * --light spot:X,Y,Z:R,G,B:I:DX,DY,DZ:INNER,OUTER  (cone half-angles, degrees) */
 /* --screen-shadow DIST,THICK.  The old STEPS,DIST,THICK still runs, with a
  * warning: the walk over the depth buffer is exact, so STEPS changed
  * nothing, and command lines, presets and farm scripts that pinned it keep
@@ -130,52 +135,165 @@ static int set_screen_shadow(fp_params_t *p, const fp_option_t *o, const char *v
     return FP_OK;
 }
 
+static double len3(const double v[3])
+{
+    return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
+
+static int finite3(const double v[3])
+{
+    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
+}
+
+/* What is wrong with a light, or NULL. */
+static const char *light_problem(const fp_light_t *li)
+{
+    if (li->kind < 0 || li->kind > 3)
+        return "kind must be 0 (point), 1 (spot), 2 (area) or 3 (directional)";
+    if (!finite3(li->pos) || !finite3(li->color) || !isfinite(li->intensity) ||
+        !finite3(li->axis))
+        return "its numbers must be finite";
+    if (li->intensity < 0 || li->color[0] < 0 || li->color[1] < 0 || li->color[2] < 0)
+        return "color and intensity must be >= 0";
+    if (!(li->radius >= 0 && isfinite(li->radius)))
+        return "the radius must be >= 0";
+    if (li->kind == 3 && !(len3(li->axis) > 0))
+        return "a directional light needs a non-zero direction toward it";
+    if ((li->kind == 1 || li->kind == 2) && !(len3(li->axis) > 0))
+        return "expected a non-zero direction";
+    if (li->kind == 1 && li->spot_profile == 0 &&
+        !(li->inner >= 0 && li->inner <= li->outer && li->outer > 0 && li->outer <= 180))
+        return "expected cone angles 0 <= INNER <= OUTER <= 180 degrees (OUTER > 0)";
+    if (li->kind == 1 && li->spot_profile == 1 &&
+        !(li->outer > 0 && li->outer <= 90 && li->blend >= 0 && li->blend <= 1))
+        return "expected a spot size 0 < SIZE <= 180 degrees and a blend in [0, 1]";
+    if (li->kind == 2) {
+        double n[3] = { li->axis[0], li->axis[1], li->axis[2] };
+        normalize3(n);
+        double un = li->u[0] * n[0] + li->u[1] * n[1] + li->u[2] * n[2];
+        double up[3] = { li->u[0] - un * n[0], li->u[1] - un * n[1], li->u[2] - un * n[2] };
+        if (!finite3(li->u) || !(len3(up) > 1e-9 * len3(li->u)))
+            return "expected an X axis U not along the normal";
+        if (!(li->size[0] > 0 && li->size[1] > 0 && isfinite(li->size[0]) &&
+              isfinite(li->size[1])))
+            return "expected sizes SU, SV > 0";
+        if (li->shape != 0 && li->shape != 1)
+            return "the shape must be 0 (rectangle) or 1 (ellipse)";
+    }
+    return NULL;
+}
+
+int fp_light_append(fp_light_params_t *l, const fp_light_t *li)
+{
+    const char *why = light_problem(li);
+    if (why)
+        return fp_error("light %d: %s", l->num_lights + 1, why);
+    if (l->num_lights >= FP_MAX_LIGHTS)
+        return fp_error("light %d: at most %d lights", l->num_lights + 1, FP_MAX_LIGHTS);
+    if (l->num_lights == l->cap_lights) {
+        int cap = l->cap_lights ? 2 * l->cap_lights : 16;
+        fp_light_t *a = realloc(l->lights, (size_t)cap * sizeof *a);
+        if (!a)
+            return fp_error("light %d: out of memory", l->num_lights + 1);
+        l->lights = a;
+        l->cap_lights = cap;
+    }
+    l->lights[l->num_lights++] = *li;
+    return FP_OK;
+}
+
+void fp_light_clear(fp_light_params_t *l)
+{
+    free(l->lights);
+    l->lights = NULL;
+    l->num_lights = l->cap_lights = 0;
+}
+
+/* --light, repeatable:
+ *   point:X,Y,Z:R,G,B:I[:RADIUS]
+ *   spot:X,Y,Z:R,G,B:I:DX,DY,DZ:INNER,OUTER[:RADIUS]   (half-angles, degrees)
+ *   spot:X,Y,Z:R,G,B:I:DX,DY,DZ:cycles:SIZE,BLEND[:RADIUS]  (Cycles 3.x: full angle)
+ *   area:X,Y,Z:R,G,B:I:NX,NY,NZ:UX,UY,UZ:SU,SV[:rectangle|ellipse]
+ *   dir:DX,DY,DZ:R,G,B:E   (toward the light; irradiance) */
 static int set_light(fp_params_t *p, const fp_option_t *o, const char *value)
 {
     fp_light_params_t *l = &p->light;
-    if (l->num_lights >= FP_MAX_LIGHTS)
-        return fp_usage_error("--%s: at most %d lights", o->name, FP_MAX_LIGHTS);
     fp_light_t li;
     memset(&li, 0, sizeof li);
-    const char *f[6];
-    size_t flen[6];
+    enum { NF = 9 };
+    const char *f[NF];
+    size_t flen[NF];
     int nf = 0;
-    for (const char *s = value; nf < 6;) {
+    for (const char *s = value; nf < NF;) {
         const char *c = strchr(s, ':');
         f[nf] = s;
         flen[nf++] = c ? (size_t)(c - s) : strlen(s);
         if (!c)
             break;
         s = c + 1;
+        if (nf == NF)
+            goto bad;
     }
-    int spot = nf > 0 && flen[0] == 4 && strncmp(f[0], "spot", 4) == 0;
-    int point = nf > 0 && flen[0] == 5 && strncmp(f[0], "point", 5) == 0;
+#define FIELD_IS(k, name) (nf > (k) && flen[k] == strlen(name) && strncmp(f[k], name, flen[k]) == 0)
     double cone[2] = { 0, 0 };
-    if (!(point && nf == 4) && !(spot && nf == 6))
-        goto bad;
-    if (parse_reals(f[1], flen[1], li.pos, 3) || parse_reals(f[2], flen[2], li.color, 3) ||
-        parse_reals(f[3], flen[3], &li.intensity, 1))
-        goto bad;
-    if (spot && (parse_reals(f[4], flen[4], li.axis, 3) || parse_reals(f[5], flen[5], cone, 2)))
-        goto bad;
-    if (li.intensity < 0 || li.color[0] < 0 || li.color[1] < 0 || li.color[2] < 0)
-        return fp_usage_error("--%s: '%s': color and intensity must be >= 0", o->name, value);
-    if (spot) {
-        double n = sqrt(li.axis[0] * li.axis[0] + li.axis[1] * li.axis[1] + li.axis[2] * li.axis[2]);
-        if (!(n > 0) || !(cone[0] >= 0 && cone[0] <= cone[1] && cone[1] > 0 && cone[1] <= 180))
-            return fp_usage_error("--%s: '%s': expected a non-zero direction and cone angles "
-                                  "0 <= INNER <= OUTER <= 180 degrees (OUTER > 0)", o->name, value);
+    if (FIELD_IS(0, "dir")) {
+        li.kind = 3;
+        if (nf != 4 || parse_reals(f[1], flen[1], li.axis, 3) ||
+            parse_reals(f[2], flen[2], li.color, 3) || parse_reals(f[3], flen[3], &li.intensity, 1))
+            goto bad;
+    } else if (FIELD_IS(0, "point")) {
+        if ((nf != 4 && nf != 5) || (nf == 5 && parse_reals(f[4], flen[4], &li.radius, 1)))
+            goto bad;
+    } else if (FIELD_IS(0, "spot")) {
         li.kind = 1;
-        li.inner = cone[0];
-        li.outer = cone[1];
+        int cyc = FIELD_IS(5, "cycles");
+        int base = cyc ? 7 : 6;
+        if ((nf != base && nf != base + 1) || parse_reals(f[4], flen[4], li.axis, 3) ||
+            parse_reals(f[base - 1], flen[base - 1], cone, 2) ||
+            (nf == base + 1 && parse_reals(f[base], flen[base], &li.radius, 1)))
+            goto bad;
+        if (cyc) {
+            li.spot_profile = 1;
+            li.outer = cone[0] / 2;
+            li.blend = cone[1];
+        } else {
+            li.inner = cone[0];
+            li.outer = cone[1];
+        }
+    } else if (FIELD_IS(0, "area")) {
+        li.kind = 2;
+        if ((nf != 7 && nf != 8) || parse_reals(f[4], flen[4], li.axis, 3) ||
+            parse_reals(f[5], flen[5], li.u, 3) || parse_reals(f[6], flen[6], li.size, 2))
+            goto bad;
+        if (nf == 8) {
+            if (FIELD_IS(7, "ellipse"))
+                li.shape = 1;
+            else if (!FIELD_IS(7, "rectangle"))
+                goto bad;
+        }
+    } else {
+        goto bad;
     }
-    l->lights[l->num_lights++] = li;
+#undef FIELD_IS
+    if (li.kind != 3 &&
+        (parse_reals(f[1], flen[1], li.pos, 3) || parse_reals(f[2], flen[2], li.color, 3) ||
+         parse_reals(f[3], flen[3], &li.intensity, 1)))
+        goto bad;
+    const char *why = light_problem(&li);
+    if (why)
+        return fp_usage_error("--%s: '%s': %s", o->name, value, why);
+    if (fp_light_append(l, &li))
+        return fp_usage_error("--%s: '%s': at most %d lights (or out of memory)", o->name, value,
+                              FP_MAX_LIGHTS);
     free(l->light);
     l->light = strdup(value);
     return FP_OK;
 bad:
-    return fp_usage_error("--%s: '%s': expected point:X,Y,Z:R,G,B:I or "
-                          "spot:X,Y,Z:R,G,B:I:DX,DY,DZ:INNER,OUTER", o->name, value);
+    return fp_usage_error("--%s: '%s': expected point:X,Y,Z:R,G,B:I[:RADIUS], "
+                          "spot:X,Y,Z:R,G,B:I:DX,DY,DZ:INNER,OUTER[:RADIUS], "
+                          "spot:X,Y,Z:R,G,B:I:DX,DY,DZ:cycles:SIZE,BLEND[:RADIUS], "
+                          "area:X,Y,Z:R,G,B:I:NX,NY,NZ:UX,UY,UZ:SU,SV[:rectangle|ellipse] or "
+                          "dir:DX,DY,DZ:R,G,B:E", o->name, value);
 }
 
 #define LI(f) offsetof(fp_params_t, light.f)
@@ -194,11 +312,21 @@ const fp_option_t fp_scatter_options[] = {
       "mix:W,G (W Rayleigh + (1-W) Cornette-Shanks), mixhg:W,G; G > 0 scatters forward",
       set_phase, 0 },
     { "light", 0, FP_OPT_STRING, LI(light), 0, 0, NULL, 0, 0, NULL, "SPEC",
-      "a local light, repeatable (up to 8): point:X,Y,Z:R,G,B:I or "
-      "spot:X,Y,Z:R,G,B:I:DX,DY,DZ:INNER,OUTER; I is the radiant intensity (W/sr: "
-      "irradiance I/d^2; a light of P watts radiating evenly has I = P/(4 pi)), cone "
-      "half-angles in degrees; the fog between light and point attenuates it",
+      "a light, repeatable (any number; D, N, U: three numbers X,Y,Z): "
+      "point:X,Y,Z:R,G,B:I[:RADIUS], spot:X,Y,Z:R,G,B:I:D:INNER,OUTER[:RADIUS] (cone "
+      "half-angles, degrees), spot:X,Y,Z:R,G,B:I:D:cycles:SIZE,BLEND[:RADIUS] (Cycles 3.x: "
+      "SIZE the full angle, intensity c smoothstep(BLEND)), "
+      "area:X,Y,Z:R,G,B:I:N:U:SU,SV[:ellipse] (one-sided, I along its normal N times the "
+      "cosine, U its X axis; Cycles: power/4), dir:D:R,G,B:E (an extra sun: toward it, "
+      "irradiance E; no shadow map, screen shadows with --shadows screen); I is the radiant "
+      "intensity (W/sr: irradiance I/d^2; Cycles' point and spot: power/(4 pi)); RADIUS the "
+      "soft size (no 1/d^2 peak within it); the fog between light and point attenuates it",
       set_light, 0 },
+    { "light-cull", 0, FP_OPT_REAL, LI(light_cull), 0, 0, "1e-4", 0, 1e6, NULL, "E",
+      "each pixel pays for the local lights that reach it: lights are left out of a pixel "
+      "while the bounds of what they could add to it sum to at most E (so the fog layer "
+      "differs by at most E in each channel from computing every light; 0: every light)",
+      NULL, 0 },
     { "shadow-map", 0, FP_OPT_STRING, LI(shadow_map), 0, 0, NULL, 0, 0, NULL, "PATTERN",
       "the sun's depth map per frame: orthographic, camera-space depth Z, worldToCamera and "
       "worldToNDC in its header (as fogpipe-scene writes shadow.####.exr)", NULL, 0 },
@@ -256,11 +384,77 @@ const fp_option_t fp_scatter_options[] = {
     FP_OPT_END
 };
 
-static void normalize3(double v[3])
+/* The lights' table (kernels/light_core.h FP_LL_*), fog space: local
+ * lights first, then the directional ones. */
+static int pack_lights(const fp_params_t *p, fp_scatter_data_t *d)
 {
-    double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    for (int i = 0; i < 3; i++)
-        v[i] /= n;
+    const fp_light_params_t *l = &p->light;
+    int n = l->num_lights, nl = 0, nd = 0;
+    free(d->lights);
+    d->lights = calloc((size_t)(n > 0 ? n : 1) * FP_LL_STRIDE, sizeof *d->lights);
+    if (!d->lights)
+        return fp_error("lights: out of memory");
+    for (int pass = 0; pass < 2; pass++)
+        for (int k = 0; k < n; k++) {
+            const fp_light_t *li = &l->lights[k];
+            if ((li->kind == 3) != pass)
+                continue;
+            double *row = d->lights + (size_t)(nl + nd) * FP_LL_STRIDE;
+            pass ? nd++ : nl++;
+            for (int c = 0; c < 3; c++)
+                row[FP_LL_I + c] = li->color[c] * li->intensity;
+            row[FP_LL_IMAX] = fmax(row[FP_LL_I], fmax(row[FP_LL_I + 1], row[FP_LL_I + 2]));
+            if (li->kind == 3) {
+                row[FP_LL_TYPE] = FP_LIGHT_DIR;
+                fp_world_to_fog(p->camera.up, li->axis, row + FP_LL_POS);
+                normalize3(row + FP_LL_POS);
+                continue;
+            }
+            row[FP_LL_TYPE] = li->kind == 1 ? FP_LIGHT_SPOT : li->kind == 2 ? FP_LIGHT_AREA
+                                                                            : FP_LIGHT_POINT;
+            fp_world_to_fog(p->camera.up, li->pos, row + FP_LL_POS);
+            row[FP_LL_RADIUS] = li->kind == 2 ? 0 : li->radius;
+            if (li->kind == 0)
+                continue;
+            fp_world_to_fog(p->camera.up, li->axis, row + FP_LL_AXIS);
+            normalize3(row + FP_LL_AXIS);
+            if (li->kind == 1 && li->spot_profile == 0) {
+                row[FP_LL_COS_IN] = cos(li->inner * M_PI / 180);
+                row[FP_LL_COS_OUT] = cos(li->outer * M_PI / 180);
+            } else if (li->kind == 1) {
+                /* Cycles 3.x spot_attenuation: spread = (1 - cos(half)) blend;
+                 * the smooth edge ends at cos(half) + spread. */
+                double co = cos(li->outer * M_PI / 180), spread = (1 - co) * li->blend;
+                row[FP_LL_PROFILE] = 1;
+                row[FP_LL_COS_OUT] = co;
+                row[FP_LL_SPREAD] = spread;
+                row[FP_LL_COS_IN] = fmin(co + spread, 1);
+            } else {
+                /* Area: U in its plane (made orthogonal to N), V = N x U. */
+                double *N = row + FP_LL_AXIS, U[3], V[3];
+                fp_world_to_fog(p->camera.up, li->u, U);
+                double un = U[0] * N[0] + U[1] * N[1] + U[2] * N[2];
+                for (int c = 0; c < 3; c++)
+                    U[c] -= un * N[c];
+                normalize3(U);
+                V[0] = N[1] * U[2] - N[2] * U[1];
+                V[1] = N[2] * U[0] - N[0] * U[2];
+                V[2] = N[0] * U[1] - N[1] * U[0];
+                for (int c = 0; c < 3; c++) {
+                    row[FP_LL_U + c] = 0.5 * li->size[0] * U[c];
+                    row[FP_LL_V + c] = 0.5 * li->size[1] * V[c];
+                }
+                row[FP_LL_SHAPE] = li->shape;
+                row[FP_LL_AREA] = li->size[0] * li->size[1] * (li->shape ? M_PI / 4 : 1);
+                row[FP_LL_REACH] = 0.5 * sqrt(li->size[0] * li->size[0] + li->size[1] * li->size[1]);
+                row[FP_LL_COS_OUT] = 0;
+                row[FP_LL_COS_IN] = 0;
+            }
+        }
+    d->nlights = nl + nd;
+    d->lt[FP_LT_NLIGHTS] = nl;
+    d->lt[FP_LT_NDIR] = nd;
+    return FP_OK;
 }
 
 int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
@@ -293,7 +487,12 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
     lt[FP_LT_PHASE] = l->phase_kind;
     lt[FP_LT_PHASE + 1] = l->phase_g;
     lt[FP_LT_PHASE + 2] = l->phase_w;
-    lt[FP_LT_SHADOWS] = !sun ? FP_SHADOWS_NONE
+    int dirs = 0;
+    for (int k = 0; k < l->num_lights; k++)
+        dirs |= l->lights[k].kind == 3;
+    /* The extra directional lights have screen shadows (no map). */
+    lt[FP_LT_SHADOWS] = !sun ? (dirs && shadows == FP_SHADOWS_WITH_SCREEN ? FP_SHADOWS_SCREEN
+                                                                          : FP_SHADOWS_NONE)
                         : shadows == FP_SHADOWS_WITH_MAP ? FP_SHADOWS_MAP
                         : shadows == FP_SHADOWS_WITH_SCREEN ? FP_SHADOWS_SCREEN : FP_SHADOWS_NONE;
     lt[FP_LT_SELF] = l->self_shadow == FP_SELF_SHADOW_OFF ? FP_SELF_OFF
@@ -304,11 +503,10 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
      * cone is at most 90 degrees wide: wider spots take the panels. */
     int wide = 0;
     for (int k = 0; k < l->num_lights; k++)
-        wide |= l->lights[k].kind && l->lights[k].outer > 90;
+        wide |= l->lights[k].kind == 1 && l->lights[k].outer > 90;
     lt[FP_LT_LIGHT_QUAD] = l->light_quad == FP_LIGHT_QUAD_FAST && !wide;
     lt[FP_LT_INTERLEAVE] = floor(l->interleave[0]);
     lt[FP_LT_INTERLEAVE + 1] = floor(l->interleave[1]);
-    lt[FP_LT_NLIGHTS] = l->num_lights;
     lt[FP_LT_SM_RADIUS] = l->shadow_filter;
     lt[FP_LT_SS_DIST] = l->screen_shadow[0];
     lt[FP_LT_SS_THICK] = l->screen_shadow[1];
@@ -344,20 +542,13 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
     lt[FP_LT_OD_STOP] = 30;
     lt[FP_LT_SEG_OD] = 0.25;
     lt[FP_LT_SEG_JUMP] = 0.002;
-    for (int k = 0; k < l->num_lights; k++) {
-        const fp_light_t *li = &l->lights[k];
-        double *row = lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE;
-        row[FP_LL_TYPE] = li->kind ? FP_LIGHT_SPOT : FP_LIGHT_POINT;
-        fp_world_to_fog(p->camera.up, li->pos, row + FP_LL_POS);
-        for (int c = 0; c < 3; c++)
-            row[FP_LL_I + c] = li->color[c] * li->intensity;
-        if (li->kind) {
-            fp_world_to_fog(p->camera.up, li->axis, row + FP_LL_AXIS);
-            normalize3(row + FP_LL_AXIS);
-            row[FP_LL_COS_IN] = cos(li->inner * M_PI / 180);
-            row[FP_LL_COS_OUT] = cos(li->outer * M_PI / 180);
-        }
-    }
+    int rc = pack_lights(p, d);
+    if (rc)
+        return rc;
+    lt[FP_LT_CULL] = l->light_cull;
+    /* The phase function's largest value: at mu = 1 or -1 for every kind. */
+    lt[FP_LT_PMAX] = fmax(fp_phase(l->phase_kind, l->phase_g, l->phase_w, 1),
+                          fp_phase(l->phase_kind, l->phase_g, l->phase_w, -1));
     d->active = sun || l->num_lights > 0 || l->albedo != 1;
     /* Fog with no top soaks up all of the sun's light before it arrives. */
     const fp_fog_params_t *f = &p->fog;
@@ -481,6 +672,7 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
 }
 
 static const float no_map[1] = { INFINITY };
+static const double no_lights[FP_LL_STRIDE];
 
 #define FP_GRID_MIN_SUN_Y 0.05
 
@@ -700,6 +892,9 @@ void fp_scatter_release(fp_scatter_data_t *d)
 {
     free(d->smap);
     free(d->grid);
+    free(d->lights);
+    d->lights = NULL;
+    d->nlights = 0;
     d->smap = d->grid = NULL;
     d->grid_n = 0;
     d->grid_key.valid = 0;
@@ -713,7 +908,8 @@ static double ray_at(const fp_scatter_data_t *d, const double *lt, const fp_inte
                      double S[3])
 {
     const fp_fog_tables_t *t = fog->tables;
-    return fp_scatter_ray_core(fog->fp, TABLES(t), lt, d->smap ? d->smap : no_map,
+    return fp_scatter_ray_core(fog->fp, TABLES(t), lt, d->lights ? d->lights : no_lights,
+                               d->smap ? d->smap : no_map,
                                d->grid ? d->grid : no_map, view_packed, depth, v->width,
                                v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, offset,
                                S);
@@ -907,9 +1103,27 @@ static int upload(fp_scatter_cl_t *s, const fp_scatter_data_t *d)
     if (fp_cl_check(clEnqueueWriteBuffer(q, s->lt, CL_TRUE, 0, sizeof lt, lt, 0, NULL, NULL),
                     "scatter: upload light parameters"))
         return FP_ERR;
+    /* The lights' table: a global buffer of any size (at least one row). */
+    size_t nf = (size_t)(d->nlights > 0 ? d->nlights : 1) * FP_LL_STRIDE;
+    float *lf = calloc(nf, sizeof *lf);
+    if (!lf)
+        return fp_error("scatter: out of memory");
+    for (size_t i = 0; d->lights && i < (size_t)d->nlights * FP_LL_STRIDE; i++)
+        lf[i] = (float)d->lights[i];
+    cl_int err = CL_SUCCESS;
+    if (!s->lights || s->lights_n != nf) {
+        if (s->lights)
+            clReleaseMemObject(s->lights);
+        s->lights = clCreateBuffer(ctx, CL_MEM_READ_ONLY, nf * sizeof(float), NULL, &err);
+        s->lights_n = err == CL_SUCCESS ? nf : 0;
+    }
+    if (err == CL_SUCCESS)
+        err = clEnqueueWriteBuffer(q, s->lights, CL_TRUE, 0, nf * sizeof(float), lf, 0, NULL, NULL);
+    free(lf);
+    if (fp_cl_check(err, "scatter: upload the lights"))
+        return FP_ERR;
     if (s->smap && s->uploaded == d->serial)
         return FP_OK;
-    cl_int err;
     if (s->smap)
         clReleaseMemObject(s->smap);
     size_t ns = d->smap ? d->smap_n : 1;
@@ -960,6 +1174,7 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
     }
     cl_kernel k = s->kernel;
     if (FP_CL_ARG(k, 12, s->lt) || FP_CL_ARG(k, 13, s->smap) || FP_CL_ARG(k, 14, s->grid) ||
+        FP_CL_ARG(k, 15, s->lights) ||
         fp_integrate_cl_launch(ic, k, v, pix, npix, out, "scatter_fog"))
         return FP_ERR;
     /* Local lights by the fast rule: scatter_fog left them out
@@ -980,6 +1195,7 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
     if (FP_CL_ARG(lk, 0, ic->depth) || FP_CL_ARG(lk, 1, ic->fog) || FP_CL_ARG(lk, 2, ic->view) ||
         FP_CL_ARG(lk, 3, w) || FP_CL_ARG(lk, 4, h) || FP_CL_ARG(lk, 5, ic->params) ||
         FP_CL_ARG(lk, 6, ic->pix) || FP_CL_ARG(lk, 7, cnpix) || FP_CL_ARG(lk, 8, s->lt) ||
+        FP_CL_ARG(lk, 9, s->lights) ||
         fp_cl_check(clEnqueueNDRangeKernel(q, lk, 2, NULL, global, NULL, 0, NULL, NULL),
                     "scatter_lights"))
         return FP_ERR;
@@ -997,7 +1213,7 @@ void fp_scatter_cl_release(fp_scatter_cl_t *s)
         clReleaseKernel(s->grid_kernel);
     if (s->light_kernel)
         clReleaseKernel(s->light_kernel);
-    cl_mem *mems[] = { &s->lt, &s->smap, &s->grid };
+    cl_mem *mems[] = { &s->lt, &s->smap, &s->grid, &s->lights };
     for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)
         if (*mems[i])
             clReleaseMemObject(*mems[i]);

@@ -13,7 +13,17 @@
 #include "integrate.h"
 #include "params.h"
 
-#define FP_LT_COUNT_ 240   /* kernels/light_core.h FP_LT_COUNT */
+#define FP_LT_COUNT_ 116   /* kernels/light_core.h FP_LT_COUNT */
+#define FP_LL_STRIDE_ 28   /* kernels/light_core.h FP_LL_STRIDE: reals per light */
+
+/* Add a light to the run's (any number, up to FP_MAX_LIGHTS): --light
+ * and the frame's rig go through here.  The light is checked (kind,
+ * finite numbers, non-negative color and intensity, a direction, cone
+ * angles, an area's axes and sizes); FP_OK, or an error naming what is
+ * wrong with it ("light N: ..."), l unchanged.  The storage grows as
+ * needed and is freed by fp_light_clear (fp_options_free calls it). */
+int fp_light_append(fp_light_params_t *l, const fp_light_t *li);
+void fp_light_clear(fp_light_params_t *l);
 #define FP_SCATTER_MAX_STEPS 256
 
 /* Per run (commit) and per frame (fp_scatter_frame): the light parameters
@@ -32,6 +42,10 @@ typedef struct fp_grid_key_t {
 typedef struct fp_scatter_data_t {
     int active;               /* anything beyond ambient fog with albedo 1 */
     double lt[FP_LT_COUNT_];  /* FP_LT_* */
+    /* The lights' table, nlights rows of FP_LL_STRIDE_ (kernels/light_core.h
+     * FP_LL_*): FP_LT_NLIGHTS local lights, then FP_LT_NDIR directional. */
+    double *lights;
+    int nlights;
     /* This frame's sun shadow map (--shadow-map), packed by
      * fp_shafts_build: biased z per texel, then its min-max pyramid. */
     float *smap;
@@ -46,7 +60,8 @@ typedef struct fp_scatter_data_t {
 } fp_scatter_data_t;
 
 /* Check and pack the light options (fog space).  d->active = 0 when the
- * options ask for nothing the integrate stage does not already do. */
+ * options ask for nothing the integrate stage does not already do.  d is
+ * overwritten (fp_scatter_release frees what a commit made). */
 int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d);
 
 /* Per frame: the view's projection for screen-space shadows, the shadow
@@ -101,7 +116,8 @@ int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
 typedef struct fp_scatter_cl_t {
     fp_cl_t *cl;
     cl_kernel kernel, grid_kernel, light_kernel;
-    cl_mem lt, smap, grid;
+    cl_mem lt, smap, grid, lights;
+    size_t lights_n;          /* floats the device's light table holds */
     fp_grid_key_t grid_key;   /* what grid holds */
     size_t grid_n;
     unsigned long uploaded;   /* serial of smap/grid on the device */

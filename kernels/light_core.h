@@ -49,12 +49,12 @@
 #define FP_LT_INTERLEAVE 76 /* 2: n x m pattern of per-pixel sample offsets (1, 1: off) */
 #define FP_LT_LIGHT_QUAD 78 /* local lights: 0 equiangular panels, 1 the fast rule (no fogmap) */
 #define FP_LT_GRID_K 79      /* cascades of the self-shadow grid (1..FP_LT_MAX_CASCADES) */
-#define FP_LT_LIGHTS 80      /* FP_LT_MAX_LIGHTS rows of FP_LT_LIGHT_STRIDE */
-#define FP_LT_LIGHT_STRIDE 16
-#define FP_LT_MAX_LIGHTS 8
+#define FP_LT_NDIR 80        /* directional lights (extra suns), after the local ones */
+#define FP_LT_CULL 81        /* per pixel, the most the local lights left out may add */
+#define FP_LT_PMAX 82        /* the phase function's largest value (culling's bound) */
 /* The self-shadow grid's cascades, finest first: per cascade its first
  * node (a, b, s in the sun's frame) and its cell (3 + 3). */
-#define FP_LT_CASCADE (FP_LT_LIGHTS + FP_LT_MAX_LIGHTS * FP_LT_LIGHT_STRIDE)
+#define FP_LT_CASCADE 84
 #define FP_LT_MAX_CASCADES 4
 /* 2: the main fog's base Y0 (fog space) and scale height H of the grid's
  * weight (H 0: none): the nodes hold od w(y), w = e^(max(y - Y0, 0) / H). */
@@ -69,16 +69,31 @@
 #define FP_LT_SS_NDC (FP_LT_GRID_W + 4)
 #define FP_LT_COUNT (FP_LT_GRID_W + 8)
 
-/* One local light's row. */
-#define FP_LL_TYPE 0         /* FP_LIGHT_POINT, FP_LIGHT_SPOT */
-#define FP_LL_POS 1          /* 3 */
-#define FP_LL_I 4            /* 3: radiant intensity, color * I (W/sr): E = I / d^2 */
-#define FP_LL_AXIS 7         /* 3: unit, the direction a spot shines */
-#define FP_LL_COS_IN 10      /* full intensity inside the inner cone */
-#define FP_LL_COS_OUT 11     /* none outside the outer cone */
+/* The lights: a table of their own (any number: a global buffer in
+ * OpenCL), FP_LT_NLIGHTS local lights (point, spot, area) then
+ * FP_LT_NDIR directional ones, FP_LL_STRIDE reals each, in fog space. */
+#define FP_LL_STRIDE 28
+#define FP_LL_TYPE 0         /* FP_LIGHT_* */
+#define FP_LL_POS 1          /* 3; directional: unit, toward the light */
+#define FP_LL_I 4            /* 3: radiant intensity, color * I (W/sr): E = I / d^2; area: along
+                                its normal; directional: irradiance */
+#define FP_LL_AXIS 7         /* 3: unit, the direction a spot shines; area: its normal */
+#define FP_LL_COS_IN 10      /* spot: full intensity inside (profile 1: cos(half) + spread) */
+#define FP_LL_COS_OUT 11     /* spot: none outside the outer cone; area: 0 (one-sided) */
+#define FP_LL_PROFILE 12     /* spot: 0 smoothstep inner..outer, 1 Cycles 3.x (c smoothstep) */
+#define FP_LL_SPREAD 13      /* spot, profile 1: (1 - cos(half)) * blend */
+#define FP_LL_RADIUS 14      /* point, spot: soft size (Cycles: a disk facing the point) */
+#define FP_LL_U 15           /* 3: area: half its extent along its local X */
+#define FP_LL_V 18           /* 3: area: half its extent along N x U */
+#define FP_LL_SHAPE 21       /* area: 0 rectangle, 1 ellipse */
+#define FP_LL_AREA 22        /* area: its area */
+#define FP_LL_IMAX 23        /* the largest of FP_LL_I's channels (culling) */
+#define FP_LL_REACH 24       /* area: its half diagonal (culling's distance bound) */
 
 #define FP_LIGHT_POINT 0
 #define FP_LIGHT_SPOT 1
+#define FP_LIGHT_AREA 2
+#define FP_LIGHT_DIR 3
 
 #define FP_SHADOWS_NONE 0
 #define FP_SHADOWS_MAP 1
@@ -347,13 +362,15 @@ FP_FN fp_real fp_ss_pixel(FP_CONSTANT const fp_real *lt, const fp_real *n, int a
  * mapping in lt (FP_LT_SM_W, FP_LT_SM_H, FP_LT_SS_NDC): a block whose
  * pixels cannot shadow the stretch is crossed in one step.  view: the
  * camera's origin and projection kind (the same for any resolution). */
-FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
-                     FP_GLOBAL const float *zpyr, fp_real ox, fp_real oy, fp_real oz,
-                     fp_real dx, fp_real dy, fp_real dz, fp_real t0, fp_real t1, fp_real ax,
-                     fp_real ay, int point, fp_real *iv)
+/* fp_ss_walk toward the direction (lx, ly, lz) (unit): the sun's, or an
+ * extra directional light's. */
+FP_FN int fp_ss_walk_dir(FP_CONSTANT const fp_real *lt, fp_real lx, fp_real ly, fp_real lz,
+                         FP_CONSTANT const float *view, FP_GLOBAL const float *zpyr, fp_real ox,
+                         fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real t0,
+                         fp_real t1, fp_real ax, fp_real ay, int point, fp_real *iv)
 {
     FP_CONSTANT const fp_real *m = lt + FP_LT_SS_M, *h = lt + FP_LT_SS_H;
-    FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
+    const fp_real l[3] = { lx, ly, lz };
     int ortho = view[FP_VIEW_ORTHO] != 0;
     fp_real dist = lt[FP_LT_SS_DIST], thick = lt[FP_LT_SS_THICK];
     fp_real q[3] = { ox - view[0], oy - view[1], oz - view[2] };
@@ -432,12 +449,22 @@ FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *vie
     return n;
 }
 
-/* A point's visibility of the sun under --shadows screen, by the same
- * rule (the brute force's and the Monte Carlo reference's).  width,
- * height: the traced view's, not used (the depth buffer's own are in lt). */
-FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
-                               FP_GLOBAL const float *zpyr, int width, int height, fp_real x,
-                               fp_real y, fp_real z)
+FP_FN int fp_ss_walk(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
+                     FP_GLOBAL const float *zpyr, fp_real ox, fp_real oy, fp_real oz,
+                     fp_real dx, fp_real dy, fp_real dz, fp_real t0, fp_real t1, fp_real ax,
+                     fp_real ay, int point, fp_real *iv)
+{
+    return fp_ss_walk_dir(lt, lt[FP_LT_SUN_DIR], lt[FP_LT_SUN_DIR + 1], lt[FP_LT_SUN_DIR + 2], view,
+                          zpyr, ox, oy, oz, dx, dy, dz, t0, t1, ax, ay, point, iv);
+}
+
+/* A point's visibility of the direction (lx, ly, lz) under --shadows
+ * screen, by the same rule (the brute force's and the Monte Carlo
+ * reference's; the extra directional lights' in the integrator): the depth
+ * buffer's size and pixels are in lt. */
+FP_FN fp_real fp_shadow_screen_dir(FP_CONSTANT const fp_real *lt, fp_real lx, fp_real ly,
+                                   fp_real lz, FP_CONSTANT const float *view,
+                                   FP_GLOBAL const float *zpyr, fp_real x, fp_real y, fp_real z)
 {
     FP_CONSTANT const fp_real *m = lt + FP_LT_SS_M, *h = lt + FP_LT_SS_H;
     fp_real q[3] = { x - view[0], y - view[1], z - view[2] }, c[3], n[3];
@@ -450,9 +477,20 @@ FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const 
     if (!(px >= 0 && py >= 0 && px < lt[FP_LT_SM_W] && py < lt[FP_LT_SM_H]))
         return 1;
     fp_real iv[2 * FP_SS_MAX_IV];
-    return fp_ss_walk(lt, view, zpyr, x, y, z, 0, 0, 0, 0, 0, px, py, 1, iv) > 0
+    return fp_ss_walk_dir(lt, lx, ly, lz, view, zpyr, x, y, z, 0, 0, 0, 0, 0, px, py, 1, iv) > 0
                ? (fp_real)0
                : (fp_real)1;
+}
+
+/* The sun's visibility at a point under --shadows screen. */
+FP_FN fp_real fp_shadow_screen(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
+                               FP_GLOBAL const float *zpyr, int width, int height, fp_real x,
+                               fp_real y, fp_real z)
+{
+    (void)width;
+    (void)height;
+    return fp_shadow_screen_dir(lt, lt[FP_LT_SUN_DIR], lt[FP_LT_SUN_DIR + 1],
+                                lt[FP_LT_SUN_DIR + 2], view, zpyr, x, y, z);
 }
 
 /* The sun's visibility at a point (geometry only). */
@@ -639,20 +677,159 @@ FP_FN fp_real fp_interleave_offset(FP_CONSTANT const fp_real *lt, int x, int y)
     return ((fp_real)((k * stride) % nm) + (fp_real)0.5) / nm;
 }
 
-/* A spot's cone: 1 inside the inner cone, 0 outside the outer, smooth
- * between; `dx, dy, dz` the unit direction from the light to the point. */
-FP_FN fp_real fp_light_cone(FP_CONSTANT const fp_real *row, fp_real dx, fp_real dy, fp_real dz)
+/* Solid angle of the triangle a, a + e, a + f seen from the origin (Van
+ * Oosterom and Strackee 1983), unsigned.  The triple product is taken as
+ * a.(e x f), from the triangle's own edges, so that it keeps its
+ * precision far from the triangle (single precision included). */
+FP_FN fp_real fp_tri_solid(fp_real ax, fp_real ay, fp_real az, fp_real ex, fp_real ey,
+                           fp_real ez, fp_real fx, fp_real fy, fp_real fz)
 {
-    if ((int)row[FP_LL_TYPE] != FP_LIGHT_SPOT)
-        return 1;
-    fp_real c = dx * row[FP_LL_AXIS] + dy * row[FP_LL_AXIS + 1] + dz * row[FP_LL_AXIS + 2];
-    fp_real ci = row[FP_LL_COS_IN], co = row[FP_LL_COS_OUT];
-    if (c >= ci)
-        return 1;
-    if (c <= co)
-        return 0;
-    fp_real s = (c - co) / (ci - co);
-    return s * s * (3 - 2 * s);
+    fp_real bx = ax + ex, by = ay + ey, bz = az + ez, cx = ax + fx, cy = ay + fy, cz = az + fz;
+    fp_real num = ax * (ey * fz - ez * fy) + ay * (ez * fx - ex * fz) + az * (ex * fy - ey * fx);
+    fp_real la = sqrt(ax * ax + ay * ay + az * az), lb = sqrt(bx * bx + by * by + bz * bz),
+            lc = sqrt(cx * cx + cy * cy + cz * cz);
+    fp_real den = la * lb * lc + (ax * bx + ay * by + az * bz) * lc +
+                  (ax * cx + ay * cy + az * cz) * lb + (bx * cx + by * cy + bz * cz) * la;
+    return 2 * fabs(atan2(num, den));
+}
+
+/* An ellipse is taken as the octagon of the same area inscribed in it
+ * scaled by sqrt(pi / (4 sin(pi/4))) (its vertices at 45 degree steps). */
+#define FP_AREA_OCT_SCALE 1.0539021936412585
+#define FP_AREA_OCT_SIDES 8
+
+/* Solid angle of area light `row` seen from the point at w = (its center
+ * minus the point). */
+FP_FN fp_real fp_area_solid(FP_GLOBAL const fp_real *row, fp_real wx, fp_real wy, fp_real wz)
+{
+    FP_GLOBAL const fp_real *U = row + FP_LL_U, *V = row + FP_LL_V;
+    if ((int)row[FP_LL_SHAPE] == 0) {
+        /* Corners -U-V, U-V, U+V, -U+V: two triangles from the first. */
+        fp_real ax = wx - U[0] - V[0], ay = wy - U[1] - V[1], az = wz - U[2] - V[2];
+        return fp_tri_solid(ax, ay, az, 2 * U[0], 2 * U[1], 2 * U[2], 2 * (U[0] + V[0]),
+                            2 * (U[1] + V[1]), 2 * (U[2] + V[2])) +
+               fp_tri_solid(ax, ay, az, 2 * (U[0] + V[0]), 2 * (U[1] + V[1]),
+                            2 * (U[2] + V[2]), 2 * V[0], 2 * V[1], 2 * V[2]);
+    }
+    fp_real om = 0, s = (fp_real)FP_AREA_OCT_SCALE, h = (fp_real)0.70710678118654752;
+    fp_real cs[FP_AREA_OCT_SIDES + 1] = { 1, h, 0, -h, -1, -h, 0, h, 1 };
+    fp_real sn[FP_AREA_OCT_SIDES + 1] = { 0, h, 1, h, 0, -h, -1, -h, 0 };
+    for (int k = 0; k < FP_AREA_OCT_SIDES; k++) {
+        fp_real c0 = s * cs[k], s0 = s * sn[k], c1 = s * cs[k + 1], s1 = s * sn[k + 1];
+        om += fp_tri_solid(wx, wy, wz, c0 * U[0] + s0 * V[0], c0 * U[1] + s0 * V[1],
+                           c0 * U[2] + s0 * V[2], c1 * U[0] + s1 * V[0], c1 * U[1] + s1 * V[1],
+                           c1 * U[2] + s1 * V[2]);
+    }
+    return om;
+}
+
+/* A local light's irradiance at a point as a factor of its intensity I
+ * over the squared distance: E = I gain / r^2, (ux, uy, uz) unit from the
+ * light's position to the point, r the distance.
+ * - spot, profile 0 (fogpipe): 1 inside the inner cone, 0 outside the
+ *   outer, smoothstep between;
+ * - spot, profile 1 (Cycles 3.x spot_attenuation): c = cos to the axis,
+ *   0 when c <= cos(half), else c smoothstep(0, spread, c - cos(half));
+ * - point and spot with a soft radius R: Cycles 3.x samples a disk of
+ *   radius R facing the point, radiance I / (pi R^2), with the cosine at
+ *   the disk: E = I 2 / (s (s + r)), s = sqrt(r^2 + R^2) (the disk's
+ *   integral of cos / d^2), I / r^2 far away, 2 I / R^2 at its center,
+ *   never infinite;
+ * - area (one-sided, Lambertian, intensity I cos along its normal): E =
+ *   radiance x solid angle = I Omega / A exactly (Omega of the rectangle,
+ *   or of the ellipse's equal-area octagon), I cos / r^2 far away.
+ * The phase function is taken toward the light's center (the disk's and
+ * the area's spread of directions is not). */
+FP_FN fp_real fp_light_gain_cos(FP_GLOBAL const fp_real *row, fp_real c, fp_real ux, fp_real uy,
+                                fp_real uz, fp_real r)
+{
+    int type = (int)row[FP_LL_TYPE];
+    if (type == FP_LIGHT_AREA)
+        return c > 0 ? r * r * fp_area_solid(row, -r * ux, -r * uy, -r * uz) / row[FP_LL_AREA]
+                     : (fp_real)0;
+    fp_real g = 1;
+    if (type == FP_LIGHT_SPOT) {
+        fp_real ci = row[FP_LL_COS_IN], co = row[FP_LL_COS_OUT];
+        if (c <= co)
+            return 0;
+        if (row[FP_LL_PROFILE] == 0) {
+            fp_real s = (c - co) / (ci - co);
+            g = c >= ci ? (fp_real)1 : s * s * (3 - 2 * s);
+        } else {
+            fp_real sp = row[FP_LL_SPREAD], s = (c - co) / fmax(sp, (fp_real)1e-30);
+            g = c * (sp > 0 && s < 1 ? s * s * (3 - 2 * s) : (fp_real)1);
+        }
+    }
+    fp_real R = row[FP_LL_RADIUS];
+    if (R > 0) {
+        fp_real s = sqrt(r * r + R * R);
+        g *= 2 * r * r / (s * (s + r));
+    }
+    return g;
+}
+
+/* The same, c the cosine of u to the light's axis computed here. */
+FP_FN fp_real fp_light_gain(FP_GLOBAL const fp_real *row, fp_real ux, fp_real uy, fp_real uz,
+                            fp_real r)
+{
+    fp_real c = ux * row[FP_LL_AXIS] + uy * row[FP_LL_AXIS + 1] + uz * row[FP_LL_AXIS + 2];
+    return fp_light_gain_cos(row, c, ux, uy, uz, r);
+}
+
+/* The largest extinction fog without a fogmap can have (its height
+ * profiles are at most 1); +inf with a fogmap (not bounded here). */
+FP_FN fp_real fp_light_sigma_max(FP_CONSTANT const fp_real *fp)
+{
+    return fp[FP_F_HAS_MAP] != 0 ? (fp_real)FP_INF
+                                 : fmax(fp[FP_F_SIGMA], (fp_real)0) + fmax(fp[FP_F_HAZE], (fp_real)0);
+}
+
+/* Culling (--light-cull): the most local light `row` can add to any
+ * channel of the view ray o + t d's in-scatter over [ta, tb] (tb may be
+ * +inf), one_minus_tau at least the ray's 1 - tau there.  0 when the
+ * spot's cone or the area's front half-space misses the stretch (the
+ * cone's support along the ray is |theta - theta_a| <= acos(cos_out / R)
+ * in the angle seen from the light, as in fp_light_fast); else
+ *   albedo Imax pmax min((1 - tau) f / D^2, sigma_max (th1 - th0) f / D)
+ * with D the light's distance to the ray's line: the irradiance is at
+ * most Imax / r^2 (the gain of fp_light_gain is at most 1) and r >= D,
+ * so the in-scatter is at most that over the segment's own
+ * int sigma tau dt <= 1 - tau, and at most sigma_max int dt / r^2 =
+ * sigma_max (th1 - th0) / D; an area light's points are up to rho (its
+ * half diagonal) nearer: r - rho >= r (D - rho) / D, f = (D / (D - rho))^2.
+ * +inf (never culled) when the ray passes within rho of the light. */
+FP_FN fp_real fp_light_bound(FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_real *row,
+                             fp_real sigma_max, fp_real one_minus_tau, fp_real ox, fp_real oy,
+                             fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real ta,
+                             fp_real tb)
+{
+    fp_real qx = row[FP_LL_POS] - ox, qy = row[FP_LL_POS + 1] - oy, qz = row[FP_LL_POS + 2] - oz;
+    fp_real tc = qx * dx + qy * dy + qz * dz;
+    fp_real rx = qx - tc * dx, ry = qy - tc * dy, rz = qz - tc * dz;
+    fp_real D = sqrt(rx * rx + ry * ry + rz * rz), rho = row[FP_LL_REACH];
+    if (!(D > rho) || !(D > (fp_real)1e-6 * (1 + fabs(tc))))
+        return FP_INF;
+    const fp_real hp = (fp_real)1.5707963267948966, pi = (fp_real)3.14159265358979323846;
+    fp_real th0 = atan((ta - tc) / D), th1 = isinf(tb) ? hp : atan((tb - tc) / D);
+    int type = (int)row[FP_LL_TYPE];
+    fp_real co = row[FP_LL_COS_OUT];
+    if ((type == FP_LIGHT_SPOT || type == FP_LIGHT_AREA) && co >= 0) {
+        /* n: from the light toward the ray's closest point. */
+        fp_real na = -(rx * row[FP_LL_AXIS] + ry * row[FP_LL_AXIS + 1] + rz * row[FP_LL_AXIS + 2]) / D;
+        fp_real da = dx * row[FP_LL_AXIS] + dy * row[FP_LL_AXIS + 1] + dz * row[FP_LL_AXIS + 2];
+        fp_real R = sqrt(na * na + da * da);
+        if (!(R > co))
+            return 0;
+        fp_real tha = atan2(da, na);
+        tha += 2 * pi * floor(((fp_real)0.5 * (th0 + th1) - tha) / (2 * pi) + (fp_real)0.5);
+        fp_real ao = acos(co / R);
+        if (tha + ao < th0 || tha - ao > th1)
+            return 0;
+    }
+    fp_real f = D / (D - rho);
+    f *= f;
+    fp_real b = fmin(one_minus_tau * f / (D * D), sigma_max * (th1 - th0) * f / D);
+    return lt[FP_LT_ALBEDO] * row[FP_LL_IMAX] * lt[FP_LT_PMAX] * b;
 }
 
 #endif

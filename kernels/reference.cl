@@ -18,7 +18,7 @@ __kernel void reference_fog(__global const float *depth, __global float *acc,
                             __global const float *coef, __constant const float *lt,
                             __global const float *smap, __constant const float *rp,
                             __global const float *grid, const uint seed, const int s0,
-                            const int s1)
+                            const int s1, __global const float *lights)
 {
     int g = get_global_id(0);
     if (g >= ne)
@@ -31,7 +31,7 @@ __kernel void reference_fog(__global const float *depth, __global float *acc,
     float sum[4] = { 0.0f, 0.0f, 0.0f, 0.0f }, sq[4] = { 0.0f, 0.0f, 0.0f, 0.0f };
     for (int s = s0; s < s1; s++) {
         float S[3];
-        float tau = fp_ref_sample(fp, lvi, lvf, coef, lt, smap, view, depth, width, height, rp,
+        float tau = fp_ref_sample(fp, lvi, lvf, coef, lt, lights, smap, view, depth, width, height, rp,
                                   grid, seed, (uint)i, (uint)s, o.x, o.y, o.z, dir.x, dir.y,
                                   dir.z, len, S);
         for (int c = 0; c < 3; c++) {

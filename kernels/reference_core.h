@@ -543,15 +543,17 @@ FP_FN fp_real fp_ref_control_tau(FP_CONSTANT const fp_real *fp, FP_CONSTANT cons
 }
 
 /* Local light k seen from x along the path's direction d: the factor of
- * its intensity I (rgb), cone p(mu) tau / r^2, tau by ratio tracking. */
+ * its intensity I (rgb), gain p(mu) tau / r^2 (fp_light_gain: cone, soft
+ * radius, area), tau by ratio tracking. */
 FP_FN fp_real fp_ref_light(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                            FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
-                           FP_CONSTANT const fp_real *lt, FP_CONSTANT const fp_real *rp,
-                           FP_GLOBAL const float *grid, int k, fp_real x, fp_real y, fp_real z,
-                           fp_real dx, fp_real dy, fp_real dz, fp_rng_t *rng)
+                           FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_real *lights,
+                           FP_CONSTANT const fp_real *rp, FP_GLOBAL const float *grid, int k,
+                           fp_real x, fp_real y, fp_real z, fp_real dx, fp_real dy, fp_real dz,
+                           fp_rng_t *rng)
 {
     FP_CONSTANT const fp_real *ph = lt + FP_LT_PHASE;
-    FP_CONSTANT const fp_real *row = lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE;
+    FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
     fp_real vx = row[FP_LL_POS] - x, vy = row[FP_LL_POS + 1] - y, vz = row[FP_LL_POS + 2] - z;
     fp_real r2 = vx * vx + vy * vy + vz * vz;
     if (!(r2 > 0))
@@ -560,7 +562,7 @@ FP_FN fp_real fp_ref_light(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int 
     vx /= r;
     vy /= r;
     vz /= r;
-    fp_real e = fp_light_cone(row, -vx, -vy, -vz);
+    fp_real e = fp_light_gain(row, -vx, -vy, -vz, r);
     if (e > 0)
         e *= fp_phase((int)ph[0], ph[1], ph[2], vx * dx + vy * dy + vz * dz) / r2;
     if (!(e > 0))
@@ -575,10 +577,10 @@ typedef struct fp_ref_eq_t {
     fp_real tc, D, th0, th1;
 } fp_ref_eq_t;
 
-FP_FN fp_ref_eq_t fp_ref_eq_setup(FP_CONSTANT const fp_real *lt, int k, fp_real ox, fp_real oy,
+FP_FN fp_ref_eq_t fp_ref_eq_setup(FP_GLOBAL const fp_real *lights, int k, fp_real ox, fp_real oy,
                                   fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real tend)
 {
-    FP_CONSTANT const fp_real *row = lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE;
+    FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
     fp_real qx = row[FP_LL_POS] - ox, qy = row[FP_LL_POS + 1] - oy, qz = row[FP_LL_POS + 2] - oz;
     fp_ref_eq_t e;
     e.tc = qx * dx + qy * dy + qz * dz;
@@ -595,16 +597,26 @@ FP_FN fp_real fp_ref_eq_pdf(const fp_ref_eq_t *e, fp_real t)
     return e->D / ((e->th1 - e->th0) * (e->D * e->D + u * u));
 }
 
+/* The view ray's collision on it for the MIS weights of the local
+ * lights' next-event estimates (fp_ref_vertex): the ray, its end, the
+ * collision's t and q there (fp_ref_sample). */
+typedef struct fp_ref_mis_t {
+    int on;
+    fp_real ox, oy, oz, tend, tc, q;
+} fp_ref_mis_t;
+
 /* Next-event estimates and ambient at a real collision x, the path
- * arriving along d: L_amb + sun + lights (without the albedo), light k
- * weighted by wl[k] (NULL: 1). */
+ * arriving along d: L_amb + sun + extra directional lights + local lights
+ * (without the albedo), light k weighted by q / (q + p_eq,k(tc)) when
+ * mis->on (the collision on the view ray; else 1). */
 FP_FN void fp_ref_vertex(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                          FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
-                         FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *smap,
-                         FP_CONSTANT const float *view, FP_GLOBAL const float *depth, int width,
-                         int height, FP_CONSTANT const fp_real *rp, FP_GLOBAL const float *grid,
-                         fp_real x, fp_real y, fp_real z, fp_real dx, fp_real dy, fp_real dz,
-                         const fp_real *wl, fp_rng_t *rng, fp_real *J)
+                         FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_real *lights,
+                         FP_GLOBAL const float *smap, FP_CONSTANT const float *view,
+                         FP_GLOBAL const float *depth, int width, int height,
+                         FP_CONSTANT const fp_real *rp, FP_GLOBAL const float *grid, fp_real x,
+                         fp_real y, fp_real z, fp_real dx, fp_real dy, fp_real dz,
+                         const fp_ref_mis_t *mis, fp_rng_t *rng, fp_real *J)
 {
     FP_CONSTANT const fp_real *ph = lt + FP_LT_PHASE;
     J[0] = lt[FP_LT_AMB];
@@ -624,13 +636,38 @@ FP_FN void fp_ref_vertex(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
         J[1] += v * lt[FP_LT_SUN_E + 1];
         J[2] += v * lt[FP_LT_SUN_E + 2];
     }
-    int nl = (int)lt[FP_LT_NLIGHTS];
-    for (int k = 0; k < nl && k < FP_LT_MAX_LIGHTS; k++) {
-        fp_real w = wl ? wl[k] : (fp_real)1;
+    int nl = (int)lt[FP_LT_NLIGHTS], nd = (int)lt[FP_LT_NDIR];
+    /* Extra directional lights: as the sun, screen shadows under
+     * --shadows screen, never a map. */
+    for (int k = nl; k < nl + nd; k++) {
+        FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
+        fp_real lx = row[FP_LL_POS], ly = row[FP_LL_POS + 1], lz = row[FP_LL_POS + 2];
+        fp_real v = fp_phase((int)ph[0], ph[1], ph[2], lx * dx + ly * dy + lz * dz);
+        if (v > 0 && (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN)
+            v *= fp_shadow_screen_dir(lt, lx, ly, lz, view, smap, x, y, z);
+        if (v > 0 && (int)lt[FP_LT_SELF] != FP_SELF_OFF) {
+            fp_real te = fp_ref_fog_end(fp, x, y, z, lx, ly, lz, FP_INF);
+            v *= fp_ref_transmittance(fp, lvi, lvf, coef, rp, grid, x, y, z, lx, ly, lz, 0, te, rng);
+        }
+        if (!(v > 0))
+            continue;
+        J[0] += v * row[FP_LL_I];
+        J[1] += v * row[FP_LL_I + 1];
+        J[2] += v * row[FP_LL_I + 2];
+    }
+    for (int k = 0; k < nl; k++) {
+        fp_real w = 1;
+        if (mis->on) {
+            fp_ref_eq_t eq = fp_ref_eq_setup(lights, k, mis->ox, mis->oy, mis->oz, dx, dy, dz,
+                                             mis->tend);
+            fp_real pe = fp_ref_eq_pdf(&eq, mis->tc);
+            w = mis->q > 0 ? mis->q / (mis->q + pe) : (fp_real)0;
+        }
         if (!(w > 0))
             continue;
-        fp_real e = w * fp_ref_light(fp, lvi, lvf, coef, lt, rp, grid, k, x, y, z, dx, dy, dz, rng);
-        FP_CONSTANT const fp_real *row = lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE;
+        fp_real e = w * fp_ref_light(fp, lvi, lvf, coef, lt, lights, rp, grid, k, x, y, z, dx, dy,
+                                     dz, rng);
+        FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
         J[0] += e * row[FP_LL_I];
         J[1] += e * row[FP_LL_I + 1];
         J[2] += e * row[FP_LL_I + 2];
@@ -649,10 +686,11 @@ FP_FN void fp_ref_vertex(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
  * q is the free flight's density itself). */
 FP_FN fp_real fp_ref_sample(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                             FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
-                            FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *smap,
-                            FP_CONSTANT const float *view, FP_GLOBAL const float *depth,
-                            int width, int height, FP_CONSTANT const fp_real *rp,
-                            FP_GLOBAL const float *grid, fp_u32 seed, fp_u32 pixel,
+                            FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_real *lights,
+                            FP_GLOBAL const float *smap, FP_CONSTANT const float *view,
+                            FP_GLOBAL const float *depth, int width, int height,
+                            FP_CONSTANT const fp_real *rp, FP_GLOBAL const float *grid,
+                            fp_u32 seed, fp_u32 pixel,
                             fp_u32 sample, fp_real ox, fp_real oy, fp_real oz, fp_real dx,
                             fp_real dy, fp_real dz, fp_real len, fp_real *S)
 {
@@ -669,27 +707,27 @@ FP_FN fp_real fp_ref_sample(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_real albedo = lt[FP_LT_ALBEDO];
     /* The lights' equiangular samples. */
     int nl = (int)lt[FP_LT_NLIGHTS];
-    nl = nl < FP_LT_MAX_LIGHTS ? nl : FP_LT_MAX_LIGHTS;
-    fp_ref_eq_t eq[FP_LT_MAX_LIGHTS];
+    fp_real tend0 = tend;
     for (int k = 0; k < nl; k++) {
-        eq[k] = fp_ref_eq_setup(lt, k, ox, oy, oz, dx, dy, dz, tend);
+        fp_ref_eq_t eq = fp_ref_eq_setup(lights, k, ox, oy, oz, dx, dy, dz, tend);
         fp_real u = stratify ? fp_ref_unit(vdc + fp_hash32(h ^ (0x3c6ef372U + (fp_u32)k)))
                              : FP_RNG_NEXT(&rng);
-        fp_real t = eq[k].tc + eq[k].D * tan(eq[k].th0 + u * (eq[k].th1 - eq[k].th0));
+        fp_real t = eq.tc + eq.D * tan(eq.th0 + u * (eq.th1 - eq.th0));
         t = fmin(fmax(t, (fp_real)0), tend);
         fp_real x = ox + t * dx, y = oy + t * dy, z = oz + t * dz;
         fp_real sig = fp_sigma_t(fp, lvi, lvf, coef, x, y, z);
-        fp_real pe = fp_ref_eq_pdf(&eq[k], t);
+        fp_real pe = fp_ref_eq_pdf(&eq, t);
         if (!(sig > 0) || !(pe > 0) || !isfinite(t))
             continue;
         fp_real q = fp_ref_control_tau(fp, rp, grid, ox, oy, oz, dx, dy, dz, 0, t) * sig;
-        fp_real e = fp_ref_light(fp, lvi, lvf, coef, lt, rp, grid, k, x, y, z, dx, dy, dz, &rng);
+        fp_real e = fp_ref_light(fp, lvi, lvf, coef, lt, lights, rp, grid, k, x, y, z, dx, dy, dz,
+                                 &rng);
         if (!(e > 0))
             continue;
         e *= fp_ref_transmittance(fp, lvi, lvf, coef, rp, grid, ox, oy, oz, dx, dy, dz, 0, t,
                                   &rng);
         e *= albedo * sig / (q + pe);
-        FP_CONSTANT const fp_real *row = lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE;
+        FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
         S[0] += e * row[FP_LL_I];
         S[1] += e * row[FP_LL_I + 1];
         S[2] += e * row[FP_LL_I + 2];
@@ -716,18 +754,19 @@ FP_FN fp_real fp_ref_sample(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         py += tc * dy;
         pz += tc * dz;
         /* On the view ray the lights take the free flight's MIS weight. */
-        fp_real wl[FP_LT_MAX_LIGHTS];
-        if (j == 0 && nl > 0) {
-            fp_real q = fp_ref_control_tau(fp, rp, grid, ox, oy, oz, dx, dy, dz, 0, tc) *
-                        fp_sigma_t(fp, lvi, lvf, coef, px, py, pz);
-            for (int k = 0; k < nl; k++) {
-                fp_real pe = fp_ref_eq_pdf(&eq[k], tc);
-                wl[k] = q > 0 ? q / (q + pe) : (fp_real)0;
-            }
-        }
+        fp_ref_mis_t mis;
+        mis.on = j == 0 && nl > 0;
+        mis.ox = ox;
+        mis.oy = oy;
+        mis.oz = oz;
+        mis.tend = tend0;
+        mis.tc = tc;
+        mis.q = mis.on ? fp_ref_control_tau(fp, rp, grid, ox, oy, oz, dx, dy, dz, 0, tc) *
+                             fp_sigma_t(fp, lvi, lvf, coef, px, py, pz)
+                       : (fp_real)0;
         fp_real J[3];
-        fp_ref_vertex(fp, lvi, lvf, coef, lt, smap, view, depth, width, height, rp, grid, px, py,
-                      pz, dx, dy, dz, j == 0 ? wl : (const fp_real *)0, &rng, J);
+        fp_ref_vertex(fp, lvi, lvf, coef, lt, lights, smap, view, depth, width, height, rp, grid,
+                      px, py, pz, dx, dy, dz, &mis, &rng, J);
         S[0] += beta * J[0];
         S[1] += beta * J[1];
         S[2] += beta * J[2];

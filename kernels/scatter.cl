@@ -18,7 +18,7 @@ __kernel void scatter_fog(__global const float *depth, __global float4 *fog_out,
                           __constant const float *lvf, __global const float *coef,
                           __global const uchar *occ, __global const int *pix, const int npix,
                           __constant const float *lt, __global const float *smap,
-                          __global const float *grid)
+                          __global const float *grid, __global const float *lights)
 {
     int x, y, out;
     if (!fp_work_pixel(pix, npix, width, height, &x, &y, &out))
@@ -28,8 +28,8 @@ __kernel void scatter_fog(__global const float *depth, __global float4 *fog_out,
     float3 dir = fp_view_ray(view, x, y, depth[i], &len);
     float3 o = fp_view_origin_at(view, x, y);
     float S[3];
-    float tau = fp_scatter_ray_core(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width,
-                                    height, o.x, o.y, o.z, dir.x, dir.y, dir.z, len,
+    float tau = fp_scatter_ray_core(fp, lvi, lvf, coef, occ, lt, lights, smap, grid, view, depth,
+                                    width, height, o.x, o.y, o.z, dir.x, dir.y, dir.z, len,
                                     fp_interleave_offset(lt, x, y), S);
     fog_out[out] = (float4)(S[0], S[1], S[2], tau);
 }
@@ -60,7 +60,8 @@ __kernel void scatter_lights(__global const float *restrict depth,
                              __constant const float *restrict view, const int width,
                              const int height, __constant const float *restrict fp,
                              __global const int *restrict pix, const int npix,
-                             __constant const float *restrict lt)
+                             __constant const float *restrict lt,
+                             __global const float *restrict lights)
 {
     int k0 = (int)get_global_id(0) * FP_LN_LANES, row = (int)get_global_id(1);
     int list = npix > 0, end = list ? npix : width;
@@ -116,19 +117,36 @@ __kernel void scatter_lights(__global const float *restrict depth,
     /* Each light added in turn to what scatter_fog wrote (the order of
      * one launch per light). */
     __global float *o = fog_out + 4 * out0;
-    float sr[FP_LN_LANES], sg[FP_LN_LANES], sb[FP_LN_LANES];
+    float sr[FP_LN_LANES], sg[FP_LN_LANES], sb[FP_LN_LANES], st[FP_LN_LANES];
     for (int j = 0; j < FP_LN_LANES; j++) {
         int jj = min(j, n - 1);
         sr[j] = o[4 * jj];
         sg[j] = o[4 * jj + 1];
         sb[j] = o[4 * jj + 2];
+        st[j] = o[4 * jj + 3];
     }
     fp_lnr S[3] = { FP_LN_CAT(vload, FP_LN_LANES)(0, sr), FP_LN_CAT(vload, FP_LN_LANES)(0, sg),
                     FP_LN_CAT(vload, FP_LN_LANES)(0, sb) };
+    /* Culling (fp_light_bound): a light is left out of these 16 pixels
+     * when every one of them can spare its bound from what is left of its
+     * budget (--light-cull); 1 - tau from scatter_fog's tau. */
+    fp_lnr omt = 1.0f - FP_LN_CAT(vload, FP_LN_LANES)(0, st);
+    fp_lnr budget = FP_LN(lt[FP_LT_CULL]), ta, tb;
+    fp_ln_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb);
+    float smax = fp_light_sigma_max(fp);
     int nl = (int)lt[FP_LT_NLIGHTS];
     for (int k = 0; k < nl; k++) {
+        if (lt[FP_LT_CULL] > 0) {
+            fp_lnr b = fp_ln_bound(lt, lights + k * FP_LL_STRIDE, smax, omt, ox, oy, oz, dx, dy,
+                                   dz, ta, tb);
+            b = tb > ta ? b : FP_LN(0);
+            if (all(b <= budget)) {
+                budget -= b;
+                continue;
+            }
+        }
         fp_lnr Sk[3];
-        fp_ln_light_ray(fp, lt, k, ox, oy, oz, dx, dy, dz, len, Sk);
+        fp_ln_light_ray(fp, lt, lights, k, ox, oy, oz, dx, dy, dz, len, Sk);
         S[0] += Sk[0];
         S[1] += Sk[1];
         S[2] += Sk[2];

@@ -53,18 +53,39 @@ FP_FN int fp_fog_span(FP_CONSTANT const fp_real *fp, fp_real ox, fp_real oy, fp_
     return hi > lo;
 }
 
-/* J at a point: sun (phase value `ph_sun` for this ray) and ambient. */
+/* J at a point: sun (phase value `ph_sun` for this ray), the extra
+ * directional lights (lights after the local ones: irradiance, phase
+ * toward them, screen shadows under --shadows screen, no shadow map; the
+ * fog's own shadow exact, fp_fog_od toward them) and ambient; (dx, dy, dz)
+ * the view ray's direction. */
 FP_FN void fp_scatter_source(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                              FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                              FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
-                             FP_GLOBAL const float *smap, FP_GLOBAL const float *grid,
-                             FP_CONSTANT const float *view, FP_GLOBAL const float *depth,
-                             int width, int height, fp_real ph_sun, fp_real x, fp_real y,
-                             fp_real z, fp_real *J)
+                             FP_GLOBAL const fp_real *lights, FP_GLOBAL const float *smap,
+                             FP_GLOBAL const float *grid, FP_CONSTANT const float *view,
+                             FP_GLOBAL const float *depth, int width, int height, fp_real ph_sun,
+                             fp_real dx, fp_real dy, fp_real dz, fp_real x, fp_real y, fp_real z,
+                             fp_real *J)
 {
     J[0] = lt[FP_LT_AMB];
     J[1] = lt[FP_LT_AMB + 1];
     J[2] = lt[FP_LT_AMB + 2];
+    int nl = (int)lt[FP_LT_NLIGHTS], nd = (int)lt[FP_LT_NDIR];
+    for (int k = nl; k < nl + nd; k++) {
+        FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
+        fp_real lx = row[FP_LL_POS], ly = row[FP_LL_POS + 1], lz = row[FP_LL_POS + 2];
+        fp_real v = fp_phase((int)lt[FP_LT_PHASE], lt[FP_LT_PHASE + 1], lt[FP_LT_PHASE + 2],
+                             dx * lx + dy * ly + dz * lz);
+        if (v > 0 && (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN)
+            v *= fp_shadow_screen_dir(lt, lx, ly, lz, view, smap, x, y, z);
+        if (v > 0 && (int)lt[FP_LT_SELF] != FP_SELF_OFF)
+            v *= exp(-fp_fog_od(fp, lvi, lvf, coef, occ, x, y, z, lx, ly, lz, FP_INF, 0));
+        if (!(v > 0))
+            continue;
+        J[0] += v * row[FP_LL_I];
+        J[1] += v * row[FP_LL_I + 1];
+        J[2] += v * row[FP_LL_I + 2];
+    }
     if (lt[FP_LT_SUN_ON] == 0 || ph_sun <= 0)
         return;
     fp_real v = fp_sun_visibility(lt, smap, view, depth, width, height, x, y, z);
@@ -279,7 +300,7 @@ FP_LFN void fp_light_span(FP_CONSTANT const fp_real *fp, fp_real ox, fp_real oy,
 
 /* Extinction at the point of [ta, tl] nearest the light (fog without a
  * fogmap): where fp_light_fast puts the start of the far fall. */
-FP_LFN fp_real fp_light_sig_c(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *row,
+FP_LFN fp_real fp_light_sig_c(FP_CONSTANT const fp_real *fp, FP_GLOBAL const fp_real *row,
                              fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
                              fp_real dz, fp_real ta, fp_real tl)
 {
@@ -319,7 +340,7 @@ FP_LFN fp_real fp_light_sig_c(FP_CONSTANT const fp_real *fp, FP_CONSTANT const f
  * the light: one trip count for every work-item.  The optical
  * depths to the camera and to the light are exact (closed forms). */
 FP_LFN fp_real fp_light_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt,
-                            FP_CONSTANT const fp_real *row, fp_real sig_c, fp_real ox, fp_real oy,
+                            FP_GLOBAL const fp_real *row, fp_real sig_c, fp_real ox, fp_real oy,
                             fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real ta, fp_real tl)
 {
     FP_CONSTANT const fp_real *ph = lt + FP_LT_PHASE;
@@ -342,8 +363,12 @@ FP_LFN fp_real fp_light_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp
     fp_real na = nx * row[FP_LL_AXIS] + ny * row[FP_LL_AXIS + 1] + nz * row[FP_LL_AXIS + 2];
     fp_real da = dx * row[FP_LL_AXIS] + dy * row[FP_LL_AXIS + 1] + dz * row[FP_LL_AXIS + 2];
     fp_real co = row[FP_LL_COS_OUT], ci = row[FP_LL_COS_IN];
-    int spot = (int)row[FP_LL_TYPE] == FP_LIGHT_SPOT;
-    int cut = spot && co >= 0;
+    int type = (int)row[FP_LL_TYPE];
+    int spot = type == FP_LIGHT_SPOT;
+    /* An area light is one-sided: its "cone" is the half-space in front
+     * (cos_out 0), with no inner cone; so is a Cycles spot without blend. */
+    int cut = (spot || type == FP_LIGHT_AREA) && co >= 0;
+    int inner = spot && (row[FP_LL_PROFILE] == 0 || ci > co);
     fp_real R = fmax(sqrt(na * na + da * da), (fp_real)1e-30);
     fp_real tha = fp_l_atan2(da, na);
     tha += 2 * pi * floor(((fp_real)0.5 * (th0 + th1) - tha) / (2 * pi) + (fp_real)0.5);
@@ -351,13 +376,14 @@ FP_LFN fp_real fp_light_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp
     fp_real ai = fp_l_acos(fmin(fmax(ci / R, (fp_real)-1), (fp_real)1));
     /* A spot whose inner cone holds the whole range is a point light.
      * (Spots wider than 90 degrees take the panels path: filters/scatter.c.) */
-    int clip = cut && !(tha - ai <= th0 && tha + ai >= th1);
-    fp_real c0 = clip ? fmax(th0, tha - ao) : th0;
-    fp_real c1 = clip ? fmax(c0, fmin(th1, tha + ao)) : th1;
+    int clip = cut && inner && !(tha - ai <= th0 && tha + ai >= th1);
+    int range = cut && !(tha - ao <= th0 && tha + ao >= th1);
+    fp_real c0 = clip || range ? fmax(th0, tha - ao) : th0;
+    fp_real c1 = clip || range ? fmax(c0, fmin(th1, tha + ao)) : th1;
     /* A point light (or a spot wider than 90 degrees): the far fall
      * begins where sigma D tan(pi/4 + theta/2) = 1. */
     fp_real thf = 2 * fp_l_atan(1 / fmax(sig_c * D, (fp_real)1e-30)) - hp;
-    thf = fmin(fmax(thf, th0), th1);
+    thf = fmin(fmax(thf, c0), c1);
     fp_real b1 = fmin(fmax(tha - ai, c0), c1);
     fp_real b2 = clip ? fmin(fmax(tha + ai, c0), c1) : thf;
     /* Map to phi: tan(e/2) = k tan(phi). */
@@ -418,9 +444,7 @@ FP_LFN fp_real fp_light_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp
             /* u: unit, from the light to the point. */
             fp_real ux = c * nx + s * dx, uy = c * ny + s * dy, uz = c * nz + s * dz;
             fp_real cu = c * na + s * da;
-            fp_real sm = fmin(fmax((cu - co) / fmax(ci - co, (fp_real)1e-30), (fp_real)0),
-                              (fp_real)1);
-            fp_real cone = spot ? (cu >= ci ? (fp_real)1 : sm * sm * (3 - 2 * sm)) : (fp_real)1;
+            fp_real cone = fp_light_gain_cos(row, cu, ux, uy, uz, r);
             fp_real sig = fp_light_plain_sigma(fp, px, py, pz);
             fp_real od = fp_light_plain_od(fp, ox, oy, oz, dx, dy, dz, t) +
                          fp_light_plain_od(fp, px, py, pz, -ux, -uy, -uz, r);
@@ -436,11 +460,11 @@ FP_LFN fp_real fp_light_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp
  * (fast rule, fog without a fogmap), over the ray's stretch through the
  * fog: S (3).  The C reference calls it from fp_scatter_ray_core; the
  * OpenCL side runs it on lanes (fp_ln_light_ray, kernel scatter_lights). */
-FP_LFN void fp_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt, int k,
-                        fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz,
-                        fp_real len, fp_real *S)
+FP_LFN void fp_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt,
+                        FP_GLOBAL const fp_real *lights, int k, fp_real ox, fp_real oy,
+                        fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real len, fp_real *S)
 {
-    FP_CONSTANT const fp_real *row = lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE;
+    FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
     fp_real ta, tb;
     fp_light_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb);
     int any = tb > ta;
@@ -454,23 +478,37 @@ FP_LFN void fp_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_rea
 }
 
 /* S += the ambient light's closed form (seed 000 eq. 4) and the local
- * lights of the fast rule (when fast; in OpenCL they run apart); returns
- * tau. */
+ * lights of the fast rule (when fast; in OpenCL they run apart), each
+ * pixel paying only for the lights that reach it: a light is left out
+ * while the bounds (fp_light_bound) of those left out add up to at most
+ * FP_LT_CULL; returns tau. */
 FP_FN fp_real fp_scatter_ambient_lights(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt,
-                                        fp_real ox, fp_real oy, fp_real oz, fp_real dx,
-                                        fp_real dy, fp_real dz, fp_real len, fp_real od_total,
-                                        int fast, fp_real *S)
+                                        FP_GLOBAL const fp_real *lights, fp_real ox, fp_real oy,
+                                        fp_real oz, fp_real dx, fp_real dy, fp_real dz,
+                                        fp_real len, fp_real od_total, int fast, fp_real *S)
 {
     for (int c = 0; c < 3; c++)
         S[c] += lt[FP_LT_ALBEDO] * -expm1(-od_total) * lt[FP_LT_AMB + c];
 #ifndef FP_LIGHTS_APART
-    for (int k = 0; fast && k < (int)lt[FP_LT_NLIGHTS]; k++) {
+    fp_real budget = lt[FP_LT_CULL], ta, tb;
+    fp_light_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb);
+    fp_real smax = fp_light_sigma_max(fp), omt = -expm1(-od_total);
+    for (int k = 0; fast && tb > ta && k < (int)lt[FP_LT_NLIGHTS]; k++) {
+        if (budget > 0) {
+            fp_real b = fp_light_bound(lt, lights + k * FP_LL_STRIDE, smax, omt, ox, oy, oz, dx, dy,
+                                       dz, ta, tb);
+            if (b <= budget) {
+                budget -= b;
+                continue;
+            }
+        }
         fp_real Sk[3];
-        fp_light_ray(fp, lt, k, ox, oy, oz, dx, dy, dz, len, Sk);
+        fp_light_ray(fp, lt, lights, k, ox, oy, oz, dx, dy, dz, len, Sk);
         for (int c = 0; c < 3; c++)
             S[c] += Sk[c];
     }
 #else
+    (void)lights;
     (void)fp;
     (void)ox;
     (void)oy;
@@ -488,11 +526,11 @@ FP_FN fp_real fp_scatter_ambient_lights(FP_CONSTANT const fp_real *fp, FP_CONSTA
 FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                              FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                              FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
-                             FP_GLOBAL const float *smap, FP_GLOBAL const float *grid,
-                             FP_CONSTANT const float *view, FP_GLOBAL const float *depth,
-                             int width, int height, fp_real ox, fp_real oy, fp_real oz,
-                             fp_real dx, fp_real dy, fp_real dz, fp_real len, fp_real offset,
-                             fp_real *S)
+                             FP_GLOBAL const fp_real *lights, FP_GLOBAL const float *smap,
+                             FP_GLOBAL const float *grid, FP_CONSTANT const float *view,
+                             FP_GLOBAL const float *depth, int width, int height, fp_real ox,
+                             fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz,
+                             fp_real len, fp_real offset, fp_real *S)
 {
     S[0] = S[1] = S[2] = 0;
     fp_real ta, tb;
@@ -524,7 +562,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     if (!(od_total > 0) || !in_fog)
         return tau;
     fp_real albedo = lt[FP_LT_ALBEDO];
-    if (lt[FP_LT_SUN_ON] == 0 && lt[FP_LT_NLIGHTS] == 0) {
+    int nd = (int)lt[FP_LT_NDIR];
+    if (lt[FP_LT_SUN_ON] == 0 && lt[FP_LT_NLIGHTS] == 0 && nd == 0) {
         /* Ambient light alone: the closed form (seed 000 eq. 4). */
         for (int c = 0; c < 3; c++)
             S[c] = albedo * -expm1(-od_total) * lt[FP_LT_AMB + c];
@@ -534,8 +573,9 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
      * ambient term is the closed form and the lights are done. */
     int nl = (int)lt[FP_LT_NLIGHTS];
     int fast_lights = lt[FP_LT_LIGHT_QUAD] != 0 && fp[FP_F_HAS_MAP] == 0;
-    if (fast_lights && lt[FP_LT_SUN_ON] == 0)
-        return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total, 1, S);
+    if (fast_lights && lt[FP_LT_SUN_ON] == 0 && nd == 0)
+        return fp_scatter_ambient_lights(fp, lt, lights, ox, oy, oz, dx, dy, dz, len, od_total, 1,
+                                         S);
     /* The sun with its shadow map: the exact runs of kernels/shafts_core.h
      * (the segments below then carry only the ambient light and the local
      * lights that need them).  In fog of height alone C is a closed form
@@ -544,8 +584,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
     int kind = (int)ph[0];
     fp_real ph_sun = fp_phase(kind, ph[1], ph[2], dx * l[0] + dy * l[1] + dz * l[2]);
-    int shafts = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
-                 (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN;
+    int shafts = lt[FP_LT_SUN_ON] != 0 && ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
+                                           (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN);
     int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
     int sides = !(isinf(fp[FP_F_BOX]) && isinf(fp[FP_F_BOX + 2]) && isinf(fp[FP_F_BOX + 3]) &&
                   isinf(fp[FP_F_BOX + 5]));
@@ -555,9 +595,9 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
             fp_shafts_add(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width, height, ox,
                           oy, oz, dx, dy, dz, ta, tb, 1, 0, od_total, albedo * ph_sun, S);
         ph_sun = 0;
-        if (nl == 0 || fast_lights)
-            return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total,
-                                             fast_lights, S);
+        if ((nl == 0 || fast_lights) && nd == 0)
+            return fp_scatter_ambient_lights(fp, lt, lights, ox, oy, oz, dx, dy, dz, len,
+                                             od_total, fast_lights, S);
     }
     fp_real od_stop = lt[FP_LT_OD_STOP];
     {
@@ -594,9 +634,9 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
                           oy, oz, dx, dy, dz, ta, tb, 0, (tb - ta) / FP_SHAFT_STEPS,
                           od_total, albedo * ph_sun, S);
         ph_sun = 0;
-        if (nl == 0 || fast_lights)
-            return fp_scatter_ambient_lights(fp, lt, ox, oy, oz, dx, dy, dz, len, od_total,
-                                             fast_lights, S);
+        if ((nl == 0 || fast_lights) && nd == 0)
+            return fp_scatter_ambient_lights(fp, lt, lights, ox, oy, oz, dx, dy, dz, len,
+                                             od_total, fast_lights, S);
     }
     /* Interleaved sampling: the first segment is `offset` of one long,
      * which shifts every later end along the ray. */
@@ -611,8 +651,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     fp_real od = cur.walk ? od_ta
                  : ta > 0 ? fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, ta, 0)
                           : 0;
-    fp_scatter_source(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width, height, ph_sun,
-                      ox + ta * dx, oy + ta * dy, oz + ta * dz, Ja);
+    fp_scatter_source(fp, lvi, lvf, coef, occ, lt, lights, smap, grid, view, depth, width, height,
+                      ph_sun, dx, dy, dz, ox + ta * dx, oy + ta * dy, oz + ta * dz, Ja);
     segt[0] = ta;
     odc[0] = od;
     int last = 0;
@@ -628,8 +668,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
             h = hs * fmax((fp_real)0.8 * xmax / x, (fp_real)0.1);
             continue;
         }
-        fp_scatter_source(fp, lvi, lvf, coef, occ, lt, smap, grid, view, depth, width, height,
-                          ph_sun, ox + t1 * dx, oy + t1 * dy, oz + t1 * dz, Jb);
+        fp_scatter_source(fp, lvi, lvf, coef, occ, lt, lights, smap, grid, view, depth, width,
+                          height, ph_sun, dx, dy, dz, ox + t1 * dx, oy + t1 * dy, oz + t1 * dz, Jb);
         fp_real e = exp(-x), ta_w = exp(-od) * albedo;
         fp_real c0 = -expm1(-x), c1 = x > 0 ? fp_expm1_ratio(x) - e : 0;
         /* The light changes fast here (a shadow's edge): halve the segment
@@ -666,22 +706,65 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     /* Local lights over [ta, t_last]. */
     fp_real tl = segt[last];
     int panels = (int)lt[FP_LT_PANELS];
-    for (int k = 0; k < nl; k++) {
-        FP_CONSTANT const fp_real *row = lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE;
-        if (fast_lights) {
+    if (fast_lights) {
+        /* The fast rule's own stretch and culling (the ambient term is in
+         * the segments already). */
 #ifndef FP_LIGHTS_APART
+        fp_real budget = lt[FP_LT_CULL], la, lb;
+        fp_light_span(fp, ox, oy, oz, dx, dy, dz, len, &la, &lb);
+        fp_real smax = fp_light_sigma_max(fp), omt = -expm1(-od_total);
+        for (int k = 0; lb > la && k < nl; k++) {
+            if (budget > 0) {
+                fp_real b = fp_light_bound(lt, lights + k * FP_LL_STRIDE, smax, omt, ox, oy, oz, dx,
+                                           dy, dz, la, lb);
+                if (b <= budget) {
+                    budget -= b;
+                    continue;
+                }
+            }
             fp_real Sk[3];
-            fp_light_ray(fp, lt, k, ox, oy, oz, dx, dy, dz, len, Sk);
+            fp_light_ray(fp, lt, lights, k, ox, oy, oz, dx, dy, dz, len, Sk);
             for (int c = 0; c < 3; c++)
                 S[c] += Sk[c];
+        }
 #endif
-            continue;
+        return tau;
+    }
+    fp_real budget = lt[FP_LT_CULL], omt = -expm1(-od_total), smax = fp_light_sigma_max(fp);
+    for (int k = 0; k < nl; k++) {
+        FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
+        if (budget > 0) {
+            fp_real b = fp_light_bound(lt, row, smax, omt, ox, oy, oz, dx, dy, dz, ta, tl);
+            if (b <= budget) {
+                budget -= b;
+                continue;
+            }
         }
         fp_real qx = row[FP_LL_POS] - ox, qy = row[FP_LL_POS + 1] - oy, qz = row[FP_LL_POS + 2] - oz;
         fp_real tc = qx * dx + qy * dy + qz * dz;
         fp_real rx = qx - tc * dx, ry = qy - tc * dy, rz = qz - tc * dz;
         fp_real D = fmax(sqrt(rx * rx + ry * ry + rz * rz), (fp_real)1e-6 * (1 + fabs(tc)));
         fp_real th0 = atan2(ta - tc, D), th1 = atan2(tl - tc, D);
+        /* A Cycles spot's cone and an area light's front half-space: the
+         * panels cover only their support along the ray (its hard edge a
+         * panel's end, not inside one), |theta - theta_a| <= acos(cos_out
+         * / R) as in fp_light_fast.  (fogpipe's spots keep the whole range.) */
+        int ty = (int)row[FP_LL_TYPE];
+        if ((ty == FP_LIGHT_AREA || (ty == FP_LIGHT_SPOT && row[FP_LL_PROFILE] != 0)) &&
+            row[FP_LL_COS_OUT] >= 0) {
+            fp_real na = -(rx * row[FP_LL_AXIS] + ry * row[FP_LL_AXIS + 1] +
+                           rz * row[FP_LL_AXIS + 2]) / D;
+            fp_real da = dx * row[FP_LL_AXIS] + dy * row[FP_LL_AXIS + 1] + dz * row[FP_LL_AXIS + 2];
+            fp_real R = sqrt(na * na + da * da), co = row[FP_LL_COS_OUT];
+            const fp_real tpi = (fp_real)6.283185307179586;
+            fp_real tha = atan2(da, na);
+            tha += tpi * floor(((fp_real)0.5 * (th0 + th1) - tha) / tpi + (fp_real)0.5);
+            fp_real ao = acos(fmin(co / fmax(R, (fp_real)1e-30), (fp_real)1));
+            th0 = fmax(th0, tha - ao);
+            th1 = fmin(th1, tha + ao);
+            if (!(R > co) || !(th1 > th0))
+                continue;
+        }
         /* The phase function's peak (mu = -sin(theta) -> 1 for g > 0, at
          * theta = -pi/2; mirrored for g < 0) is about 1 - |g| wide in
          * theta: with e the angle from the peak, panels grow
@@ -722,7 +805,7 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
                 vx /= r;
                 vy /= r;
                 vz /= r;
-                fp_real cone = fp_light_cone(row, -vx, -vy, -vz);
+                fp_real cone = fp_light_gain(row, -vx, -vy, -vz, r);
                 if (cone <= 0)
                     continue;
                 /* Camera-side optical depth: linear between segment ends. */

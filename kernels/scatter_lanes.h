@@ -226,6 +226,108 @@ FP_LN_FN void fp_ln_span(FP_CONSTANT const fp_real *fp, fp_lnr ox, fp_lnr oy, fp
     *tb = fmax(main_on ? b : FP_LN(-FP_INF), haze_on ? hb : FP_LN(-FP_INF));
 }
 
+/* fp_tri_solid on lanes: the points differ per lane, the triangle's
+ * edges do not. */
+FP_LN_FN fp_lnr fp_ln_tri_solid(fp_lnr ax, fp_lnr ay, fp_lnr az, fp_real ex, fp_real ey, fp_real ez,
+                                fp_real fx, fp_real fy, fp_real fz)
+{
+    fp_lnr bx = ax + ex, by = ay + ey, bz = az + ez, cx = ax + fx, cy = ay + fy, cz = az + fz;
+    fp_lnr num = ax * (ey * fz - ez * fy) + ay * (ez * fx - ex * fz) + az * (ex * fy - ey * fx);
+    fp_lnr la = sqrt(ax * ax + ay * ay + az * az), lb = sqrt(bx * bx + by * by + bz * bz),
+           lc = sqrt(cx * cx + cy * cy + cz * cz);
+    fp_lnr den = la * lb * lc + (ax * bx + ay * by + az * bz) * lc +
+                 (ax * cx + ay * cy + az * cz) * lb + (bx * cx + by * cy + bz * cz) * la;
+    return 2 * fabs(fp_ln_atan2(num, den));
+}
+
+/* fp_area_solid on lanes. */
+FP_LN_FN fp_lnr fp_ln_area_solid(FP_GLOBAL const fp_real *row, fp_lnr wx, fp_lnr wy, fp_lnr wz)
+{
+    FP_GLOBAL const fp_real *U = row + FP_LL_U, *V = row + FP_LL_V;
+    if ((int)row[FP_LL_SHAPE] == 0) {
+        fp_lnr ax = wx - U[0] - V[0], ay = wy - U[1] - V[1], az = wz - U[2] - V[2];
+        return fp_ln_tri_solid(ax, ay, az, 2 * U[0], 2 * U[1], 2 * U[2], 2 * (U[0] + V[0]),
+                               2 * (U[1] + V[1]), 2 * (U[2] + V[2])) +
+               fp_ln_tri_solid(ax, ay, az, 2 * (U[0] + V[0]), 2 * (U[1] + V[1]),
+                               2 * (U[2] + V[2]), 2 * V[0], 2 * V[1], 2 * V[2]);
+    }
+    fp_lnr om = FP_LN(0);
+    fp_real s = (fp_real)FP_AREA_OCT_SCALE, h = (fp_real)0.70710678118654752;
+    fp_real cs[FP_AREA_OCT_SIDES + 1] = { 1, h, 0, -h, -1, -h, 0, h, 1 };
+    fp_real sn[FP_AREA_OCT_SIDES + 1] = { 0, h, 1, h, 0, -h, -1, -h, 0 };
+    for (int k = 0; k < FP_AREA_OCT_SIDES; k++) {
+        fp_real c0 = s * cs[k], s0 = s * sn[k], c1 = s * cs[k + 1], s1 = s * sn[k + 1];
+        om += fp_ln_tri_solid(wx, wy, wz, c0 * U[0] + s0 * V[0], c0 * U[1] + s0 * V[1],
+                              c0 * U[2] + s0 * V[2], c1 * U[0] + s1 * V[0], c1 * U[1] + s1 * V[1],
+                              c1 * U[2] + s1 * V[2]);
+    }
+    return om;
+}
+
+/* fp_light_gain_cos on lanes (the light's kind is the same for every
+ * lane): cu the cosine of u to the light's axis. */
+FP_LN_FN fp_lnr fp_ln_gain(FP_GLOBAL const fp_real *row, int type, fp_lnr cu, fp_lnr ux,
+                           fp_lnr uy, fp_lnr uz, fp_lnr r)
+{
+    if (type == FP_LIGHT_AREA)
+        return cu > 0 ? r * r * fp_ln_area_solid(row, -r * ux, -r * uy, -r * uz) / row[FP_LL_AREA]
+                      : FP_LN(0);
+    fp_lnr g = FP_LN(1);
+    if (type == FP_LIGHT_SPOT) {
+        fp_real co = row[FP_LL_COS_OUT], ci = row[FP_LL_COS_IN];
+        if (row[FP_LL_PROFILE] == 0) {
+            fp_lnr sm = fmin(fmax((cu - co) / fmax(ci - co, (fp_real)1e-30), (fp_real)0),
+                             (fp_real)1);
+            g = cu >= ci ? FP_LN(1) : sm * sm * (3 - 2 * sm);
+        } else {
+            fp_real sp = row[FP_LL_SPREAD];
+            fp_lnr sm = fmin(fmax((cu - co) / fmax(sp, (fp_real)1e-30), (fp_real)0), (fp_real)1);
+            fp_lnr v = sp > 0 ? cu * (sm * sm * (3 - 2 * sm)) : cu;
+            g = cu <= co ? FP_LN(0) : v;
+        }
+    }
+    fp_real R = row[FP_LL_RADIUS];
+    if (R > 0) {
+        fp_lnr s = sqrt(r * r + R * R);
+        g *= 2 * r * r / (s * (s + r));
+    }
+    return g;
+}
+
+/* fp_light_bound on lanes. */
+FP_LN_FN fp_lnr fp_ln_bound(FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_real *row,
+                            fp_real sigma_max, fp_lnr one_minus_tau, fp_lnr ox, fp_lnr oy,
+                            fp_lnr oz, fp_lnr dx, fp_lnr dy, fp_lnr dz, fp_lnr ta, fp_lnr tb)
+{
+    fp_lnr qx = row[FP_LL_POS] - ox, qy = row[FP_LL_POS + 1] - oy, qz = row[FP_LL_POS + 2] - oz;
+    fp_lnr tc = qx * dx + qy * dy + qz * dz;
+    fp_lnr rx = qx - tc * dx, ry = qy - tc * dy, rz = qz - tc * dz;
+    fp_lnr D = sqrt(rx * rx + ry * ry + rz * rz);
+    fp_real rho = row[FP_LL_REACH];
+    fp_lni near = !((D > rho) & (D > (fp_real)1e-6 * (1 + fabs(tc))));
+    fp_lnr Ds = near ? FP_LN(1) : D;
+    const fp_real pi = (fp_real)3.14159265358979323846;
+    fp_lnr th0 = fp_ln_atan((ta - tc) / Ds), th1 = fp_ln_atan((tb - tc) / Ds);
+    int type = (int)row[FP_LL_TYPE];
+    fp_real co = row[FP_LL_COS_OUT];
+    fp_lni miss = FP_LNI(0);
+    if ((type == FP_LIGHT_SPOT || type == FP_LIGHT_AREA) && co >= 0) {
+        fp_lnr na = -(rx * row[FP_LL_AXIS] + ry * row[FP_LL_AXIS + 1] + rz * row[FP_LL_AXIS + 2]) / Ds;
+        fp_lnr da = dx * row[FP_LL_AXIS] + dy * row[FP_LL_AXIS + 1] + dz * row[FP_LL_AXIS + 2];
+        fp_lnr R = sqrt(na * na + da * da);
+        fp_lnr tha = fp_ln_atan2(da, na);
+        tha += 2 * pi * floor(((fp_real)0.5 * (th0 + th1) - tha) / (2 * pi) + (fp_real)0.5);
+        fp_lnr ao = fp_ln_acos(fmin(co / fmax(R, (fp_real)1e-30), (fp_real)1));
+        miss = (R <= co) | (tha + ao < th0) | (tha - ao > th1);
+    }
+    fp_lnr f = Ds / (Ds - rho);
+    f *= f;
+    fp_lnr b = fmin(one_minus_tau * f / (Ds * Ds), sigma_max * (th1 - th0) * f / Ds);
+    b *= lt[FP_LT_ALBEDO] * row[FP_LL_IMAX] * lt[FP_LT_PMAX];
+    b = miss ? FP_LN(0) : b;
+    return near ? FP_LN(FP_INF) : b;
+}
+
 /* e in [0, pi] (theta's angle from the phase peak, halved about pi/4) to
  * phi: tan(e/2) = k tan(phi). */
 FP_LN_FN fp_lnr fp_ln_phi(fp_lnr half_e, fp_real k)
@@ -239,7 +341,7 @@ FP_LN_FN fp_lnr fp_ln_phi(fp_lnr half_e, fp_real k)
  * view ray, without the light's intensity (the comments of fp_light_fast
  * say why each step is there). */
 FP_LN_FN fp_lnr fp_ln_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt,
-                           FP_CONSTANT const fp_real *row, fp_lnr sig_c, fp_lnr ox, fp_lnr oy,
+                           FP_GLOBAL const fp_real *row, fp_lnr sig_c, fp_lnr ox, fp_lnr oy,
                            fp_lnr oz, fp_lnr dx, fp_lnr dy, fp_lnr dz, fp_lnr ta, fp_lnr tl)
 {
     FP_CONSTANT const fp_real *ph = lt + FP_LT_PHASE;
@@ -257,20 +359,25 @@ FP_LN_FN fp_lnr fp_ln_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_r
     fp_lnr na = nx * row[FP_LL_AXIS] + ny * row[FP_LL_AXIS + 1] + nz * row[FP_LL_AXIS + 2];
     fp_lnr da = dx * row[FP_LL_AXIS] + dy * row[FP_LL_AXIS + 1] + dz * row[FP_LL_AXIS + 2];
     fp_real co = row[FP_LL_COS_OUT], ci = row[FP_LL_COS_IN];
-    int spot = (int)row[FP_LL_TYPE] == FP_LIGHT_SPOT;
-    int cut = spot && co >= 0;
+    int type = (int)row[FP_LL_TYPE];
+    int spot = type == FP_LIGHT_SPOT;
+    int cut = (spot || type == FP_LIGHT_AREA) && co >= 0;
+    int inner = spot && (row[FP_LL_PROFILE] == 0 || ci > co);
     fp_lnr R = fmax(sqrt(na * na + da * da), (fp_real)1e-30);
     fp_lnr tha = fp_ln_atan2(da, na);
     tha += 2 * pi * floor(((fp_real)0.5 * (th0 + th1) - tha) / (2 * pi) + (fp_real)0.5);
     fp_lnr ao = fp_ln_acos(fmin(fmax(co / R, (fp_real)-1), (fp_real)1));
     fp_lnr ai = fp_ln_acos(fmin(fmax(ci / R, (fp_real)-1), (fp_real)1));
     fp_lni clip = !((tha - ai <= th0) & (tha + ai >= th1));
-    if (!cut)
+    if (!cut || !inner)
         clip = FP_LNI(0);
-    fp_lnr c0 = clip ? fmax(th0, tha - ao) : th0;
-    fp_lnr c1 = clip ? fmax(c0, fmin(th1, tha + ao)) : th1;
+    fp_lni range = !((tha - ao <= th0) & (tha + ao >= th1));
+    if (!cut)
+        range = FP_LNI(0);
+    fp_lnr c0 = (clip | range) ? fmax(th0, tha - ao) : th0;
+    fp_lnr c1 = (clip | range) ? fmax(c0, fmin(th1, tha + ao)) : th1;
     fp_lnr thf = 2 * fp_ln_atan(1 / fmax(sig_c * D, (fp_real)1e-30)) - hp;
-    thf = fmin(fmax(thf, th0), th1);
+    thf = fmin(fmax(thf, c0), c1);
     fp_lnr b1 = fmin(fmax(tha - ai, c0), c1);
     fp_lnr b2 = clip ? fmin(fmax(tha + ai, c0), c1) : thf;
     int peaked = (kind == FP_PHASE_HG || kind == FP_PHASE_CS || kind == FP_PHASE_MIX ||
@@ -315,14 +422,10 @@ FP_LN_FN fp_lnr fp_ln_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_r
             fp_lnr ic = 1 / c;
             fp_lnr t = tc + D * s * ic, r = D * ic;
             fp_lnr px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
-            fp_lnr cone = FP_LN(1);
-            if (spot) {
-                fp_lnr cu = c * na + s * da;
-                fp_lnr sm = fmin(fmax((cu - co) / fmax(ci - co, (fp_real)1e-30), (fp_real)0),
-                                 (fp_real)1);
-                cone = cu >= ci ? FP_LN(1) : sm * sm * (3 - 2 * sm);
-            }
             fp_lnr ux = c * nx + s * dx, uy = c * ny + s * dy, uz = c * nz + s * dz;
+            fp_lnr cone = FP_LN(1);
+            if (type != FP_LIGHT_POINT || row[FP_LL_RADIUS] > 0)
+                cone = fp_ln_gain(row, type, c * na + s * da, ux, uy, uz, r);
             fp_lnr sig = fp_ln_plain_sigma(fp, px, py, pz);
             fp_lnr od = fp_ln_plain_od(fp, ox, oy, oz, dx, dy, dz, t) +
                         fp_ln_plain_od(fp, px, py, pz, -ux, -uy, -uz, r);
@@ -336,11 +439,11 @@ FP_LN_FN fp_lnr fp_ln_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_r
 
 /* fp_light_ray on lanes: light k's in-scatter along the view rays
  * o + t d, t in [0, len] (len finite or infinite): S (3). */
-FP_LN_FN void fp_ln_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt, int k,
-                              fp_lnr ox, fp_lnr oy, fp_lnr oz, fp_lnr dx, fp_lnr dy, fp_lnr dz,
-                              fp_lnr len, fp_lnr *S)
+FP_LN_FN void fp_ln_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_real *lt,
+                              FP_GLOBAL const fp_real *lights, int k, fp_lnr ox, fp_lnr oy,
+                              fp_lnr oz, fp_lnr dx, fp_lnr dy, fp_lnr dz, fp_lnr len, fp_lnr *S)
 {
-    FP_CONSTANT const fp_real *row = lt + FP_LT_LIGHTS + k * FP_LT_LIGHT_STRIDE;
+    FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
     fp_lnr ta, tb;
     fp_ln_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb);
     fp_lni any = tb > ta;

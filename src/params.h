@@ -97,16 +97,28 @@ typedef struct fp_animate_params_t {
     char *cache_dir;      /* advection states */
 } fp_animate_params_t;
 
-#define FP_MAX_LIGHTS 8
+/* Local and extra directional lights: no fixed limit (fp_light_append,
+ * filters/scatter.h); FP_MAX_LIGHTS only bounds what one run may hold. */
+#define FP_MAX_LIGHTS 65536
 enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN };
 enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP, FP_SELF_SHADOW_AUTO };
 enum { FP_LIGHT_QUAD_FAST = 0, FP_LIGHT_QUAD_PANELS };
 
-/* One --light: kind (0 point, 1 spot), position, color, intensity (W/sr),
- * spot axis, inner and outer cone half-angles (degrees). */
+/* One light (--light, or the frame's rig): kind 0 point, 1 spot, 2 area
+ * (axis = the emitting side's normal), 3 directional (an extra sun: axis =
+ * the direction toward it, color x intensity its irradiance; no shadow
+ * map); position, color, intensity (the scalar multiplier of color: W/sr
+ * for point and spot, W/sr along the normal for area), spot axis, inner
+ * and outer cone half-angles (degrees, spot_profile 0).  The fields after
+ * `outer` are issue 23's (filters/scatter.c gives them their meaning). */
 typedef struct fp_light_t {
     int kind;
     double pos[3], color[3], intensity, axis[3], inner, outer;
+    int spot_profile;      /* 0: fogpipe's --light spot (inner/outer); 1: Cycles 3.x (blend, cosine) */
+    double blend;          /* Cycles spot_blend (spot_profile 1); outer = spot_size/2 */
+    double radius;         /* point/spot soft size (Blender shadow_soft_size); 0: a point */
+    double u[3], size[2];  /* area: local X axis and extents along u and axis x u */
+    int shape;             /* area: 0 rectangle, 1 ellipse */
 } fp_light_t;
 
 /* Light in the fog (filters/scatter.c). */
@@ -119,8 +131,8 @@ typedef struct fp_light_params_t {
     int phase_kind;       /* FP_PHASE_* (kernels/phase.h) */
     double phase_g, phase_w;
     char *light;          /* the last --light as given; every one parsed into lights[] */
-    fp_light_t lights[FP_MAX_LIGHTS];
-    int num_lights;
+    fp_light_t *lights;   /* num_lights of them (fp_light_append; freed by fp_options_free) */
+    int num_lights, cap_lights;
     char *shadow_map;     /* pattern of the sun's depth maps */
     int shadows;          /* FP_SHADOWS_* */
     double shadow_bias;   /* scene units, added to each texel's own */
@@ -133,6 +145,7 @@ typedef struct fp_light_params_t {
     int light_panels;
     int light_quad;       /* FP_LIGHT_QUAD_* */
     double interleave[2]; /* N x M pattern of per-pixel sample offsets */
+    double light_cull;    /* per pixel, the most the lights left out may add (0: none left out) */
 } fp_light_params_t;
 
 typedef struct fp_color_params_t {  /* filters/color.c */

@@ -301,6 +301,95 @@ static void buffers_section(bench_t *b, const char *shadow_opt)
     free(lo_depth);
 }
 
+/* Issue 23: many lamps.  A street of n lamps (points with a soft
+ * radius, Cycles spots pointing down, fogpipe spots, area lights facing
+ * down), 1.5 units apart along z on both sides, in the sample frame's
+ * ground fog; OpenCL, culling at the default bound and off: CPU time per
+ * pixel (getrusage, user + sys: PoCL's threads are the process's) and
+ * wall, the least of `reps` runs, and the culling's measured error. */
+static void lamps_section(bench_t *b)
+{
+    static const int counts[] = { 1, 8, 64, 256 };
+    const int reps = 3;
+    printf("\n### Many lamps (issue 23): each pixel pays for the lamps that reach it\n\n"
+           "A street of N lamps along z (points with a soft radius, Cycles spots and fogpipe "
+           "spots shining down, area lights facing down; 1.5 apart on both sides), "
+           "density 0.05, height 0,3,15, hg:0.6, the fast rule, OpenCL. CPU ns per pixel "
+           "(user + sys, getrusage) and wall ms per frame, the least of %d runs, with the "
+           "default --light-cull 1e-4 and with culling off (0); the culling's error: the "
+           "largest |dS| of any channel against culling off (its bound: 1e-4).\n\n", reps);
+    printf("| lamps | CPU ns/px (cull) | wall ms (cull) | CPU ns/px (off) | wall ms (off) | "
+           "CPU per lamp, ns/px (cull) | max dS vs off |\n|---|---|---|---|---|---|---|\n");
+    float *off = malloc(b->n * 4 * sizeof *off);
+    if (!off)
+        return;
+    for (size_t ci = 0; ci < FP_ARRAY_LEN(counts); ci++) {
+        int n = counts[ci];
+        char **opts = calloc((size_t)n + 8, sizeof *opts);
+        int m = 0;
+        opts[m++] = strdup("density=0.05");
+        opts[m++] = strdup("height=0,3,15");
+        opts[m++] = strdup("fog-color=0.002,0.003,0.006");
+        opts[m++] = strdup("phase=hg:0.6");
+        for (int k = 0; k < n; k++) {
+            char spec[256];
+            double x = (k % 2 ? -4 : 4) + 0.5 * sin(k), z = 2 + 1.5 * (k / 2) + 0.75 * (k % 2);
+            switch (k % 4) {
+            case 0:
+                snprintf(spec, sizeof spec, "light=point:%g,3.5,%g:1,0.6,0.3:8:0.1", x, z);
+                break;
+            case 1:
+                snprintf(spec, sizeof spec,
+                         "light=spot:%g,4,%g:0.8,0.9,1:30:%g,-1,0.1:cycles:60,0.2:0.05", x, z,
+                         -0.1 * x);
+                break;
+            case 2:
+                snprintf(spec, sizeof spec, "light=spot:%g,4,%g:1,1,0.8:30:0,-1,0:20,35", x, z);
+                break;
+            default:
+                snprintf(spec, sizeof spec, "light=area:%g,3,%g:1,0.9,0.7:6:0,-1,0:1,0,0:0.6,0.3",
+                         x, z);
+            }
+            opts[m++] = strdup(spec);
+        }
+        double cpu[2], wall[2], err = 0;
+        for (int cull = 1; cull >= 0; cull--) {
+            opts[m] = strdup(cull ? "light-cull=1e-4" : "light-cull=0");
+            opts[m + 1] = NULL;
+            look_t l;
+            if (look_setup(b, &l, (const char *const *)opts)) {
+                free(opts[m]);
+                break;
+            }
+            run_cl(b, &l, 1);   /* warm: the program built, the buffers made */
+            cpu[cull] = wall[cull] = INFINITY;
+            for (int r = 0; r < reps; r++) {
+                double c0 = cpu_s(), t0 = now_ms();
+                fp_scatter_process_cl(&b->scl, &b->icl, &l.light, &l.fog, &b->view, b->depth,
+                                      b->got);
+                wall[cull] = fmin(wall[cull], now_ms() - t0);
+                cpu[cull] = fmin(cpu[cull], (cpu_s() - c0) * 1e9 / (double)b->n);
+            }
+            if (!cull) {
+                for (size_t i = 0; i < b->n; i++)
+                    for (int c = 0; c < 3; c++)
+                        err = fmax(err, fabs((double)b->got[4 * i + c] - off[4 * i + c]));
+            } else {
+                memcpy(off, b->got, b->n * 4 * sizeof *off);
+            }
+            look_release(&l);
+            free(opts[m]);
+            opts[m] = NULL;
+        }
+        printf("| %d | %.0f | %.1f | %.0f | %.1f | %.0f | %.2g |\n", n, cpu[1], wall[1], cpu[0],
+               wall[0], cpu[1] / n, err);
+        for (int k = 0; k < m; k++)
+            free(opts[k]);
+        free(opts);
+    }
+    free(off);
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 4) {
@@ -332,6 +421,10 @@ int main(int argc, char **argv)
     const char *only = getenv("FP_BENCH_LIGHT_ONLY");
     if (only && strcmp(only, "buffers") == 0)
         goto buffers;
+    if (only && strcmp(only, "lamps") == 0) {
+        lamps_section(&b);
+        goto done;
+    }
     printf("## Light in the fog (single scattering)\n\n"
            "Frame: %s, %dx%d; device: %s. OpenCL ms per frame (Mpixel/s); the C double "
            "reference on every 61st pixel: time per pixel and the largest difference of S "
@@ -442,8 +535,10 @@ int main(int argc, char **argv)
             }
         }
     }
+    lamps_section(&b);
 buffers:
     buffers_section(&b, shadow_opt);
+done:
     fp_scatter_cl_release(&b.scl);
     fp_integrate_cl_release(&b.icl);
     fp_cl_close(b.cl);

@@ -713,6 +713,51 @@ static void test_lights_single(void **state)
     scene_free(&sc);
 }
 
+/* Issue 23's kinds: a Cycles spot with a blend and a soft radius, an area
+ * light (rectangle) and an extra directional light, in height fog with a
+ * forward phase function: the Monte Carlo reference (its own estimator:
+ * free flights, equiangular sampling, ratio tracking, the same light
+ * models, fp_light_gain) against the deterministic integrator's fast rule
+ * (kernels/scatter_core.h), statistically, as test_lights_single. */
+static void test_new_kinds_single(void **state)
+{
+    (void)state;
+    const char *const opts[] = {
+        "density", "0.06", "height", "0,6", "fog-color", "0,0,0", "phase", "hg:0.4",
+        "light", "spot:-2,4,10:1,0.8,0.6:40:0.2,-1,0.1:cycles:60,0.3:0.3",
+        "light", "area:2,3,8:0.6,0.8,1:25:0,-1,0.3:1,0,0:2,1",
+        "light", "dir:0.3,0.8,-0.4:1,1,1:0.5", "light-cull", "0", NULL };
+    scene_t sc;
+    scene_make(&sc, 8, 6, 1.5, 5, 0.3, 0, opts);
+    size_t n = (size_t)sc.w * sc.h;
+    float *out = malloc(n * 4 * sizeof(float)), *se = malloc(n * 4 * sizeof(float));
+    float *want = malloc(n * 4 * sizeof(float));
+    double t0 = now_s();
+    replicas(&sc, NULL, NULL, 16, 128, 300, out, se);
+    double dt = now_s() - t0;
+    assert_int_equal(fp_scatter_process(&sc.sd, &sc.fog, &sc.v, sc.depth, want), FP_OK);
+    double zmax, zrms, rel = 0, smax = 0;
+    size_t at;
+    zstats(out, se, want, NULL, n, 1e-7, 1 / (128 * sqrt(16)), &zmax, &zrms, &at);
+    for (size_t i = 0; i < 4 * n; i++) {
+        rel = fmax(rel, fabs(out[i] - want[i]) / fmax(want[i], 1e-3));
+        smax = fmax(smax, i % 4 < 3 ? want[i] : 0);
+    }
+    print_message("Cycles spot + area + dir light, %zu pixels, 16 runs of 128 spp, %.1f s: "
+                  "reference vs deterministic max |error| %.2f se (pixel %zu channel %zu: %.7g, "
+                  "deterministic %.7g), rms %.2f se; max relative error %.2g (S up to %.3g)\n",
+                  n, dt, zmax, at / 4, at % 4, out[at], want[at], zrms, rel, smax);
+    if (!(zmax <= 5.5))
+        fail_msg("pixel %zu channel %zu: reference %.7g (se %.2g), deterministic %.7g", at / 4,
+                 at % 4, out[at], se[at], want[at]);
+    assert_true(zrms <= 1.5);
+    assert_true(smax > 0.01);
+    free(out);
+    free(se);
+    free(want);
+    scene_free(&sc);
+}
+
 /* A view ray passing 2 cm from a point light: the in-scattering peaks
  * like 1 / (D^2 + s^2) over a few centimetres of a 30 m ray, which free
  * flights alone would resolve only at enormous sample counts; with the
@@ -1112,6 +1157,7 @@ int main(void)
         cmocka_unit_test(test_majorant_bounds),
         cmocka_unit_test(test_sun_single),
         cmocka_unit_test(test_lights_single),
+        cmocka_unit_test(test_new_kinds_single),
         cmocka_unit_test(test_light_close),
         cmocka_unit_test(test_opencl_agrees),
         cmocka_unit_test(test_determinism),
