@@ -42,6 +42,9 @@ typedef struct fp_view_t {
     int depth_kind;        /* FP_DEPTH_* */
     int width, height;     /* data window size */
     int ortho;             /* orthographic: rays start on the camera's plane (fp_view_origin_at) */
+    double clip;           /* clip start: the fog begins on the plane at this planar depth
+                              (Cycles' camera rays start there; orthographic: along the view
+                              axis from the camera's plane); 0: at the camera */
 } fp_view_t;
 
 void fp_world_to_fog(int up, const double w[3], double f[3]);
@@ -54,11 +57,14 @@ int fp_view_setup(const fp_camera_t *c, const fp_params_t *p,
 int fp_view_is_sky(const fp_view_t *v, float depth, int *suspicious);
 
 /* The view ray of pixel (x, y) of the data window with its depth sample:
- * unit direction in fog space and length (INFINITY for sky). */
+ * unit direction in fog space and length (INFINITY for sky), from where
+ * the fog starts (fp_view_origin_at): the clip plane, so that the length
+ * is the surface's distance less the clip's along the ray, at least 0. */
 void fp_view_ray(const fp_view_t *v, int x, int y, float depth,
                  double dir[3], double *len);
 /* Where that ray starts, fog space: the camera, or for an orthographic
- * camera the pixel's point on the camera's plane. */
+ * camera the pixel's point on the camera's plane; moved along the ray to
+ * the clip plane (v->clip > 0). */
 void fp_view_origin_at(const fp_view_t *v, int x, int y, double o[3]);
 
 /* Layout of the view for kernels (kernels/fp_common.h, FP_VIEW_*). */

@@ -28,6 +28,8 @@ typedef struct fp_io_params_t {
     char *device;
     int cpu;              /* C reference instead of OpenCL */
     char *preset;
+    char *rig;            /* --rig FILE: the rig as JSON (src/rig.h) */
+    long frame;           /* --frame N: a single input file's frame number */
     int quiet;
     int verbose;
 } fp_io_params_t;
@@ -45,6 +47,7 @@ typedef struct fp_camera_params_t {
     int up;               /* FP_UP_Y / FP_UP_Z */
     int depth_kind;       /* FP_DEPTH_* */
     double far;           /* depth beyond this is sky */
+    double clip_start;    /* fog starts at this planar depth (Cycles' clip start) */
 } fp_camera_params_t;
 
 typedef struct fp_fog_params_t {
@@ -98,6 +101,7 @@ typedef struct fp_animate_params_t {
 } fp_animate_params_t;
 
 #define FP_MAX_LIGHTS 8
+enum { FP_LIGHTS_FRAME = 0, FP_LIGHTS_NONE = 1 };
 enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN };
 enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP, FP_SELF_SHADOW_AUTO };
 enum { FP_LIGHT_QUAD_FAST = 0, FP_LIGHT_QUAD_PANELS };
@@ -107,6 +111,11 @@ enum { FP_LIGHT_QUAD_FAST = 0, FP_LIGHT_QUAD_PANELS };
 typedef struct fp_light_t {
     int kind;
     double pos[3], color[3], intensity, axis[3], inner, outer;
+    int spot_profile;      /* 0: fogpipe's --light spot (inner/outer); 1: Cycles 3.x (blend, cosine) */
+    double blend;          /* Cycles spot_blend (spot_profile 1); outer = spot_size/2 */
+    double radius;         /* point/spot soft size (Blender shadow_soft_size); 0: a point */
+    double u[3], size[2];  /* area: local X axis and extents along u and axis x u */
+    int shape;             /* area: 0 rectangle, 1 ellipse */
 } fp_light_t;
 
 /* Light in the fog (filters/scatter.c). */
@@ -121,6 +130,7 @@ typedef struct fp_light_params_t {
     char *light;          /* the last --light as given; every one parsed into lights[] */
     fp_light_t lights[FP_MAX_LIGHTS];
     int num_lights;
+    int lights_from;      /* FP_LIGHTS_FRAME / FP_LIGHTS_NONE: the rig's lights (src/rig.h) */
     char *shadow_map;     /* pattern of the sun's depth maps */
     int shadows;          /* FP_SHADOWS_* */
     double shadow_bias;   /* scene units, added to each texel's own */
