@@ -66,6 +66,10 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *view, const float *
 
 void fp_scatter_release(fp_scatter_data_t *d);
 
+/* Add one light to the light parameters (the rig's lights, src/rig.c):
+ * FP_OK, or an error naming what is over. */
+int fp_light_append(fp_light_params_t *l, const fp_light_t *li);
+
 /* The view ray's fog layer in double precision: S (3) and returns tau. */
 double fp_scatter_ray(const fp_scatter_data_t *d, const fp_integrate_data_t *fog,
                       const fp_view_t *v, const float *view_packed, const float *depth,

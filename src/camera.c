@@ -509,6 +509,21 @@ static void chan_check(const fp_camera_params_t *cp, const fp_frame_info_t *info
             "--chan-sensor W,H; see README 'From Nuke')", where_file, frame, cp->chan, msg);
 }
 
+int fp_camera_matrices(const fp_frame_info_t *info, const char *where_file, long frame,
+                       const char *what, double w2c[16], double w2n[16])
+{
+    if (info->has_world_to_camera && info->has_world_to_ndc) {
+        memcpy(w2c, info->world_to_camera, 16 * sizeof *w2c);
+        memcpy(w2n, info->world_to_ndc, 16 * sizeof *w2n);
+        return FP_OK;
+    }
+    if (info->camera_text[0])
+        return parse_camera_text(info, where_file, frame, w2c, w2n);
+    return fp_error("%s: frame %ld: %s without a camera (expected worldToCamera and worldToNDC "
+                    "in its header, or a string attribute 'fogpipe-camera 1 ...' as Blender's "
+                    "add-on writes into the Note)", where_file, frame, what);
+}
+
 int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
                       const char *where_file, long frame, fp_camera_t *out)
 {

@@ -28,6 +28,13 @@ typedef struct fp_camera_t {
 int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
                       const char *where_file, long frame, fp_camera_t *out);
 
+/* The camera matrices a frame carries (OpenEXR's row-vector
+ * worldToCamera and worldToNDC): its header's, else those of its
+ * "fogpipe-camera 1 ..." text.  An error naming the file and frame when
+ * it has neither (`what` says what the frame is: "shadow map"). */
+int fp_camera_matrices(const fp_frame_info_t *info, const char *where_file, long frame,
+                       const char *what, double w2c[16], double w2n[16]);
+
 void fp_camera_print(FILE *out, const fp_camera_t *c, const fp_frame_info_t *info,
                      const char *where_file, long frame);
 

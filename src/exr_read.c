@@ -751,6 +751,23 @@ static int attr_has(const exr_attribute_t *a, const char *word)
     return 0;
 }
 
+/* 1 when a text starts (after white space) with "fogpipe-". */
+static int starts_fogpipe(const char *s)
+{
+    while (*s == ' ' || *s == '\t' || *s == '\n' || *s == '\r')
+        s++;
+    return strncmp(s, "fogpipe-", 8) == 0;
+}
+
+static int attr_starts_fogpipe(const exr_attribute_t *a)
+{
+    int i = 0, n = a->string->length;
+    const char *s = a->string->str;
+    while (i < n && (s[i] == ' ' || s[i] == '\t' || s[i] == '\n' || s[i] == '\r'))
+        i++;
+    return n - i >= 8 && memcmp(s + i, "fogpipe-", 8) == 0;
+}
+
 /* A string attribute's value as a new string (NULL: out of memory, or an
  * empty or too long one: 16 MiB, the most a rig of 4096 lights needs many
  * times over). */
@@ -830,13 +847,22 @@ static void read_camera_text(fp_frame_t *f, fp_frame_info_t *in)
                     EXR_ERR_SUCCESS || !a || read_rig_attr(a, &in->rig) ||
                 a->type != EXR_ATTR_STRING || !a->string || !a->string->str)
                 continue;
+            /* The first attribute holding the text, or a later one that
+             * starts with it (a tool's history, oiiotool's ImageHistory,
+             * may quote the command that wrote it). */
             fp_rig_attrs_t *rg = &in->rig;
-            if (!rg->text && attr_has(a, "fogpipe-rig") &&
-                (rg->text = attr_strdup(a)))
-                snprintf(rg->text_attr, sizeof rg->text_attr, "%s", a->name);
-            if (!rg->look && attr_has(a, "fogpipe-look") &&
-                (rg->look = attr_strdup(a)))
-                snprintf(rg->look_attr, sizeof rg->look_attr, "%s", a->name);
+            if (attr_has(a, "fogpipe-rig") && (!rg->text || (!starts_fogpipe(rg->text) &&
+                                                             attr_starts_fogpipe(a)))) {
+                free(rg->text);
+                if ((rg->text = attr_strdup(a)))
+                    snprintf(rg->text_attr, sizeof rg->text_attr, "%s", a->name);
+            }
+            if (attr_has(a, "fogpipe-look") && strcmp(rg->look_attr, "fogpipeLook") != 0 &&
+                (!rg->look || (!starts_fogpipe(rg->look) && attr_starts_fogpipe(a)))) {
+                free(rg->look);
+                if ((rg->look = attr_strdup(a)))
+                    snprintf(rg->look_attr, sizeof rg->look_attr, "%s", a->name);
+            }
             int len = a->string->length;
             char v[sizeof in->camera_text];
             if (len <= 0 || len >= (int) sizeof v)

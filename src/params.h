@@ -29,7 +29,7 @@ typedef struct fp_io_params_t {
     int cpu;              /* C reference instead of OpenCL */
     char *preset;
     char *rig;            /* --rig FILE: the rig as JSON (src/rig.h) */
-    long frame;           /* --frame N: a single input file's frame number */
+    int frame;            /* --frame N: a single input file's frame number */
     int quiet;
     int verbose;
 } fp_io_params_t;
@@ -132,6 +132,8 @@ typedef struct fp_light_params_t {
     int num_lights;
     int lights_from;      /* FP_LIGHTS_FRAME / FP_LIGHTS_NONE: the rig's lights (src/rig.h) */
     char *shadow_map;     /* pattern of the sun's depth maps */
+    int shadow_map_literal; /* shadow_map is one file's name (a frame's rig): no frame
+                               number expanded in it */
     int shadows;          /* FP_SHADOWS_* */
     double shadow_bias;   /* scene units, added to each texel's own */
     int shadow_filter;    /* edge ramps, texels each side (0: hard) */

@@ -16,6 +16,7 @@
 #include "reference.h"
 #include "options.h"
 #include "seq.h"
+#include "rig.h"
 
 #include <errno.h>
 #include <math.h>
@@ -36,6 +37,9 @@ const fp_option_t fp_io_options[] = {
     { "frames", 'f', FP_OPT_STRING, IO(frames), 0, 0, NULL, 0, 0, NULL, "LIST",
       "frames of a sequence: 1001-1100, 1-100x2, 5, -3, 1,3,7-9 (default: all found on disk; "
       "for a stream, the numbers given to its frames)", NULL, 0 },
+    { "frame", 0, FP_OPT_INT, IO(frame), 0, 0, NULL, -1e9, 1e9, NULL, "N",
+      "the frame number of a single input file, for animated fog and the rig's per-frame "
+      "values (default: the number its name ends with, shot.0002.exr: 2; else 1)", NULL, 0 },
     { "depth", 0, FP_OPT_STRING, IO(depth), 0, 0, NULL, 0, 0, NULL, "PATTERN",
       "take depth from a separate EXR sequence (same frame numbers and data window)", NULL, 0 },
     { "color-layer", 0, FP_OPT_STRING, IO(color_layer), 0, 0, NULL, 0, 0, NULL, "PREFIX",
@@ -100,6 +104,12 @@ const fp_option_t fp_run_options[] = {
 
 typedef struct run_t {
     fp_params_t *p;
+    /* The frame's parameters (the calling thread's, process_frame): p with
+     * the frame's rig applied (src/rig.h); p itself when it has none. */
+    fp_params_t *fp;
+    fp_params_t fq;                  /* what fp points to with a rig */
+    fp_rig_file_t *rigfile;          /* --rig FILE */
+    uint64_t light_key;              /* what `light` was committed from (fp_rig_light_key) */
     fp_exr_select_t sel;
     fp_exr_write_opts_t wopts;
     fp_integrate_data_t fog;
@@ -226,7 +236,7 @@ static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
 static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, const int *pix,
                        size_t npix, float *fog)
 {
-    fp_params_t *p = r->p;
+    fp_params_t *p = r->fp;
     size_t n = pix ? npix : (size_t)view->width * view->height;
     if (r->reference)
         return r->use_cl
@@ -249,7 +259,7 @@ static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, cons
 static int frame_fog(run_t *r, const fp_view_t *view, const float *depth, const char *in_name,
                      long frame, float *fog)
 {
-    fp_params_t *p = r->p;
+    fp_params_t *p = r->fp;
     int w = view->width, h = view->height, rc = FP_OK;
     size_t n = (size_t)w * h;
     int res = p->buffers.resolution > 1 ? p->buffers.resolution : 1;
@@ -324,7 +334,7 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
                          float *fog, int layer, fp_color_frame_t *color, double *ms,
                          double *decompose_ms)
 {
-    fp_params_t *p = r->p;
+    fp_params_t *p = r->fp;
     double t0 = fp_now_ms();
     fp_view_t view;
     int rc;
@@ -390,9 +400,38 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
     return FP_OK;
 }
 
+/* The frame's parameters (r->fp): the options with the frame's rig, and
+ * the light stage committed again when what it is made from changed (an
+ * animated lamp, another frame's shadow map). */
+static int frame_params(run_t *r, const fp_rig_t *rig, const char *in_name, long frame)
+{
+    r->fp = r->p;
+    int rc;
+    if (rig->any) {
+        if ((rc = fp_rig_apply(r->p, rig, in_name, frame, &r->fq)))
+            return rc;
+        r->fp = &r->fq;
+    }
+    uint64_t key = fp_rig_light_key(r->fp);
+    if (key == r->light_key || r->p->cmd.print_camera)
+        return FP_OK;
+    fp_scatter_data_t d;
+    if ((rc = fp_scatter_commit(r->fp, &d)))
+        return fp_error("%s: frame %ld: the rig's light cannot be used (see above)", in_name,
+                        frame);
+    fp_scatter_release(&r->light);
+    r->light = d;
+    r->light_key = key;
+    /* Light the first frames did not have: the device's light stage now. */
+    if (r->use_cl && r->cl && r->light.active && !r->scl.cl &&
+        (rc = fp_scatter_cl_init(r->cl, &r->scl)))
+        return rc;
+    return FP_OK;
+}
+
 /* Stage 2, calling thread (it owns the device): fog one decoded frame and
- * composite it in place. */
-static int process_frame(run_t *r, fp_loop_job_t *job)
+ * composite it in place, with the frame's parameters (frame_params). */
+static int process_frame_with(run_t *r, fp_loop_job_t *job, const fp_rig_t *rig)
 {
     fp_params_t *p = r->p;
     frame_state_t *fs = job->data;
@@ -402,10 +441,12 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     int rc;
     const fp_frame_info_t *info = fp_frame_info(f);
     fp_camera_t cam;
-    if ((rc = fp_camera_resolve(p, info, in_name, frame, &cam)))
+    if ((rc = fp_camera_resolve(r->fp, info, in_name, frame, &cam)))
         return rc;
     if (p->cmd.print_camera) {
         fp_camera_print(stdout, &cam, info, in_name, frame);
+        if (rig->any || r->rigfile)
+            fp_rig_print(stdout, rig, r->fp);
         return FP_OK;
     }
     size_t n = (size_t)info->width * info->height;
@@ -424,6 +465,22 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     fp_aov_write_opts(p, &fs->aov, &fs->wopts);
     job->ms[FP_T_COMPOSITE] += fp_now_ms() - t_aov;
     return FP_OK;
+}
+
+static int process_frame(run_t *r, fp_loop_job_t *job)
+{
+    frame_state_t *fs = job->data;
+    fp_rig_t rig;
+    /* This frame's rig (what it carries, under --rig's) over the options. */
+    int rc = fp_rig_frame(r->rigfile, fp_frame_info(fs->f), job->in, job->frame, &rig);
+    if (rc)
+        return rc;
+    if ((rc = frame_params(r, &rig, job->in, job->frame)) == FP_OK)
+        rc = process_frame_with(r, job, &rig);
+    fp_rig_params_release(&r->fq);
+    r->fp = r->p;
+    fp_rig_free(&rig);
+    return rc;
 }
 
 /* Stage 3, writer thread (frames arrive in order): encode the frame and
@@ -532,6 +589,8 @@ static int setup(run_t *r)
     int rc = fp_integrate_commit(p, &r->fog);
     if (rc || (rc = fp_scatter_commit(p, &r->light)))
         return rc;
+    r->fp = p;
+    r->light_key = fp_rig_light_key(p);
     r->reference = p->fogmap.integrator == FP_INTEGRATOR_REFERENCE;
     r->buffers = fp_buffers_active(p);
     r->use_cl = !p->io.cpu;
@@ -672,6 +731,74 @@ static int run_stream_input(run_t *r, const fp_frame_list_t *labels)
     return run_loop(r, next_stream, labels ? (long)labels->count : 0);
 }
 
+/* A single input file's frame number: --frame, else the number its name
+ * ends with, else 1. */
+static long single_frame(const fp_params_t *p)
+{
+    long frame = 1;
+    if (fp_options_given(p, "frame"))
+        return p->io.frame;
+    fp_seq_frame_of_name(p->io.input, &frame);
+    return frame;
+}
+
+/* The first input frame and its number (file input): where the run's up
+ * axis and look come from (fp_rig_prescan).  Non-zero when there is none
+ * to read (the frame loop says why). */
+static int first_input(const fp_params_t *p, char *path, size_t n, long *frame)
+{
+    int seq = fp_seq_has_placeholder(p->io.input);
+    if (seq < 0)
+        return FP_ERR;
+    if (!seq) {
+        if (p->io.frames)
+            return FP_ERR;
+        *frame = single_frame(p);
+        snprintf(path, n, "%s", p->io.input);
+        return FP_OK;
+    }
+    fp_frame_list_t l = { NULL, 0 };
+    int rc = p->io.frames ? fp_frames_parse(p->io.frames, &l) : fp_frames_scan(p->io.input, &l);
+    if (rc == FP_OK && l.count)
+        rc = fp_seq_format(p->io.input, *frame = l.frames[0], path, n);
+    else
+        rc = FP_ERR;
+    fp_frames_free(&l);
+    return rc;
+}
+
+/* --rig FILE, and the run's up axis and look: from the rig file, else the
+ * first frame's rig (its header read once more here; its errors, if any,
+ * are the frame loop's to report). */
+static int rig_setup(run_t *r)
+{
+    fp_params_t *p = r->p;
+    int rc;
+    if (p->io.rig && (rc = fp_rig_file_load(p->io.rig, &r->rigfile)))
+        return rc;
+    fp_rig_t first;
+    memset(&first, 0, sizeof first);
+    char path[4096] = "<stdin>";
+    long frame = 1;
+    if (!is_stream(p->io.input)) {
+        fp_msgbuf_t quiet = { NULL, 0, 0 };
+        fp_msgbuf_t *prev = fp_msg_capture(&quiet);
+        fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
+        sel.need_color = sel.need_depth = 0;
+        fp_frame_t *f = NULL;
+        if (first_input(p, path, sizeof path, &frame) == FP_OK &&
+            fp_exr_read_file(path, frame, &sel, &f) == FP_OK &&
+            fp_rig_from_frame(fp_frame_info(f), path, frame, &first) != FP_OK)
+            memset(&first, 0, sizeof first);
+        fp_frame_free(f);
+        fp_msg_capture(prev);
+        fp_msg_free(&quiet);
+    }
+    rc = fp_rig_prescan(p, r->rigfile, &first, path, frame);
+    fp_rig_free(&first);
+    return rc;
+}
+
 static int run_files(run_t *r)
 {
     fp_params_t *p = r->p;
@@ -684,6 +811,9 @@ static int run_files(run_t *r)
     fp_frame_list_t frames = { NULL, 0 };
     unsigned char *skip = NULL;
     int rc = FP_OK;
+    if (fp_options_given(p, "frame") && (in_seq || p->io.frames))
+        return fp_usage_error("--frame %d: only for a single input file without --frames (a "
+                              "sequence's frames: --frames)", p->io.frame);
     if (in_seq) {
         if (!out_stream && !out_seq && !p->cmd.print_camera)
             return fp_usage_error("%s: output of a sequence must be a sequence pattern "
@@ -700,7 +830,7 @@ static int run_files(run_t *r)
             frames.frames = malloc(sizeof(long));
             if (!frames.frames)
                 return fp_error("out of memory");
-            frames.frames[0] = 1;
+            frames.frames[0] = single_frame(p);
             frames.count = 1;
         }
     }
@@ -758,6 +888,8 @@ static void run_release(run_t *r)
     fp_color_release(&r->color);
     fp_fogmap_release(&r->fogmap);
     fp_scatter_release(&r->light);
+    fp_rig_file_free(r->rigfile);
+    r->rigfile = NULL;
     if (r->cl) {
         fp_scatter_cl_release(&r->scl);
         if (r->reference)
@@ -781,6 +913,8 @@ int fp_pipeline_run(fp_params_t *p)
     memset(&r, 0, sizeof r);
     r.p = p;
     int rc = fp_image_limits_apply(p->run.max_image_pixels);
+    if (rc == FP_OK && !p->fogmap.preview)
+        rc = rig_setup(&r);
     if (rc == FP_OK)
         rc = setup(&r);
     if (rc == FP_OK && p->fogmap.preview) {
