@@ -449,6 +449,17 @@ int fp_options_apply_look(fp_params_t *p, const char *text, const char *origin)
             return fp_usage_error("%s: look: --%s is not part of a fog look (expected the "
                                   "fog's, light's, buffers' or animation's settings)", origin,
                                   o->name);
+        /* Checked whether it is used or not (a bad look is the frame's
+         * error either way), on a scratch set of parameters. */
+        fp_params_t *scratch = malloc(sizeof *scratch);
+        if (!scratch)
+            return fp_error("out of memory");
+        if ((rc = fp_options_defaults(scratch)) == FP_OK)
+            rc = fp_options_apply(scratch, o->name, eq + 1, origin);
+        fp_options_free(scratch);
+        free(scratch);
+        if (rc)
+            return rc;
         /* Under the command line and --preset: set there (any alias of
          * the field) wins. */
         int taken = 0;
