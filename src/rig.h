@@ -1,7 +1,7 @@
 /* fogpipe: the rig, what the host knows about the light and the camera's
  * frame besides the camera matrices: up axis, clip start, suns, point,
  * spot and area lights, the sun's shadow map, and the artist's fog look
- * (issue 23; the schema, version 1, is in the README "From other hosts").
+ * (issue 23: the fogpipe rig schema, version 1).
  *
  * Three carriers: the text form in any string attribute of the frame
  * (Blender's stamp Note, beside "fogpipe-camera 1 ..."):
@@ -94,6 +94,14 @@ int fp_rig_frame(const fp_rig_file_t *file, const fp_frame_info_t *info,
  * line and --preset (fp_options_apply_look). */
 int fp_rig_prescan(fp_params_t *p, const fp_rig_file_t *file, const fp_rig_t *first,
                    const char *first_name, long first_frame);
+
+/* --rig FILE loaded into *file (NULL without), then fp_rig_prescan with
+ * the first input frame's rig (a file input's header read once more; its
+ * errors, if any, are the frame loop's to report). */
+int fp_rig_run_setup(fp_params_t *p, fp_rig_file_t **file);
+/* A single input file's frame number: --frame, else the number its name
+ * ends with (fp_seq_frame_of_name), else 1. */
+long fp_rig_single_frame(const fp_params_t *p);
 
 /* The frame's parameters: *q = *base with the rig applied under the flags
  * (schema precedence): clip start, the brightest sun as --sun/--sun-color/

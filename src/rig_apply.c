@@ -4,6 +4,7 @@
 #include "fp.h"
 #include "options.h"
 #include "scatter.h"
+#include "seq.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -58,6 +59,78 @@ int fp_rig_prescan(fp_params_t *p, const fp_rig_file_t *file, const fp_rig_t *fi
     if (rc == FP_OK && run.look)
         rc = fp_options_apply_look(p, run.look, run.look_from);
     fp_rig_free(&run);
+    return rc;
+}
+
+/* ------------------------------------------------------------ the run */
+
+/* A single input file's frame number: --frame, else the number its name
+ * ends with, else 1. */
+long fp_rig_single_frame(const fp_params_t *p)
+{
+    long frame = 1;
+    if (fp_options_given(p, "frame"))
+        return p->io.frame;
+    fp_seq_frame_of_name(p->io.input, &frame);
+    return frame;
+}
+
+/* The first input frame and its number (file input): where the run's up
+ * axis and look come from (fp_rig_prescan).  Non-zero when there is none
+ * to read (the frame loop says why). */
+static int first_input(const fp_params_t *p, char *path, size_t n, long *frame)
+{
+    int seq = fp_seq_has_placeholder(p->io.input);
+    if (seq < 0)
+        return FP_ERR;
+    if (!seq) {
+        if (p->io.frames)
+            return FP_ERR;
+        *frame = fp_rig_single_frame(p);
+        snprintf(path, n, "%s", p->io.input);
+        return FP_OK;
+    }
+    fp_frame_list_t l = { NULL, 0 };
+    int rc = p->io.frames ? fp_frames_parse(p->io.frames, &l) : fp_frames_scan(p->io.input, &l);
+    if (rc == FP_OK && l.count)
+        rc = fp_seq_format(p->io.input, *frame = l.frames[0], path, n);
+    else
+        rc = FP_ERR;
+    fp_frames_free(&l);
+    return rc;
+}
+
+static int is_stream(const char *s) { return !s || strcmp(s, "-") == 0; }
+
+/* --rig FILE, and the run's up axis and look: from the rig file, else the
+ * first frame's rig (its header read once more here; its errors, if any,
+ * are the frame loop's to report). */
+int fp_rig_run_setup(fp_params_t *p, fp_rig_file_t **file)
+{
+    int rc;
+    *file = NULL;
+    if (p->io.rig && (rc = fp_rig_file_load(p->io.rig, file)))
+        return rc;
+    fp_rig_t first;
+    memset(&first, 0, sizeof first);
+    char path[4096] = "<stdin>";
+    long frame = 1;
+    if (!is_stream(p->io.input)) {
+        fp_msgbuf_t quiet = { NULL, 0, 0 };
+        fp_msgbuf_t *prev = fp_msg_capture(&quiet);
+        fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
+        sel.need_color = sel.need_depth = 0;
+        fp_frame_t *f = NULL;
+        if (first_input(p, path, sizeof path, &frame) == FP_OK &&
+            fp_exr_read_file(path, frame, &sel, &f) == FP_OK &&
+            fp_rig_from_frame(fp_frame_info(f), path, frame, &first) != FP_OK)
+            memset(&first, 0, sizeof first);
+        fp_frame_free(f);
+        fp_msg_capture(prev);
+        fp_msg_free(&quiet);
+    }
+    rc = fp_rig_prescan(p, *file, &first, path, frame);
+    fp_rig_free(&first);
     return rc;
 }
 
