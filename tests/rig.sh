@@ -60,6 +60,14 @@ check "--clip-start 0 over the rig's" sh -c '"$1" -i "$2" -o "$3" $4 --clip-star
   sh "$FOGPIPE" "$T/c.0001.exr" "$T/c0.exr" "$FOG" "$IDIFF" "$T/p.exr"
 check "... OpenCL agrees with C" sh -c '"$1" -i "$2" -o "$3" --density 0.06 --height 0,6,25 --fog-color 0.2,0.2,0.25 -q &&
   "$4" -q -fail 0.002 "$3" "$5"' sh "$FOGPIPE" "$T/c.0001.exr" "$T/ccl.exr" "$IDIFF" "$T/c.exr"
+check "... with a lamp and a sun (the lights' lanes, the sun's march): OpenCL agrees with C" sh -c '
+  for d in --cpu ""; do "$1" -i "$2" -o "$3$d.exr" $d --density 0.06 --height 0,6,25 --fog-color 0.2,0.2,0.25 -q \
+    --light point:0,2,5:10,8,6:1 --sun 0.3,1,0.2 || exit 1; done &&
+  "$4" -q -fail 0.003 -failpercent 0.5 "$3--cpu.exr" "$3.exr" &&
+  ! "$4" -q -fail 0 "$3.exr" "$5"' sh "$FOGPIPE" "$T/c.0001.exr" "$T/cl" "$IDIFF" "$T/c.exr"
+check "... at half resolution, clip and lamp" sh -c '"$1" -i "$2" -o "$3" --density 0.06 --height 0,6,25 \
+  --fog-color 0.2,0.2,0.25 -q --light point:0,2,5:10,8,6:1 --sun 0.3,1,0.2 --fog-resolution 1/2 &&
+  "$4" -q -fail 0.02 -failpercent 5 -warn 0.02 -warnpercent 5 "$3" "$5"' sh "$FOGPIPE" "$T/c.0001.exr" "$T/half.exr" "$IDIFF" "$T/cl.exr"
 
 # Typed attributes over the text; the up axis from the frame.
 "$OIIOTOOL" --nosoftwareattrib "$P" --attrib Note "fogpipe-rig 1 up y clip 0.5" \
