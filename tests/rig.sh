@@ -84,6 +84,10 @@ check "--up y against the frame's z: used, with one warning" sh -c '
   "$1" -i "$2" -o "$3" --cpu --density 0.06 --height 0,6,25 --fog-color 0.2,0.2,0.25 --up y \
     --progress off 2> "$4" && [ "$(grep -c "rig says up z; --up y is used" "$4")" = 1 ] &&
   "$5" -q -fail 0 "$3" "$6"' sh "$FOGPIPE" "$T/z.0001.exr" "$T/zy.exr" "$T/zy.txt" "$IDIFF" "$T/p.exr"
+check "a stream keeps the run's up axis, and says so once" sh -c '
+  cat "$2" "$2" | "$1" --cpu --density 0.06 --height 0,6,25 --progress off > "$3" 2> "$4" &&
+  [ "$(grep -c "the rig says up z, the run.s up axis is y" "$4")" = 1 ]' sh "$FOGPIPE" "$T/z.0001.exr" \
+  "$T/zs.exr" "$T/zs.txt"
 
 # The look the frame carries, under the command line.
 note "$T/l.0001.exr" "$P" "fogpipe-look 1 density=0.12 fog-color=0.5,0.2,0.1"
