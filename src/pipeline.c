@@ -110,6 +110,7 @@ typedef struct run_t {
     fp_params_t fq;                  /* what fp points to with a rig */
     fp_rig_file_t *rigfile;          /* --rig FILE */
     uint64_t light_key;              /* what `light` was committed from (fp_rig_light_key) */
+    int has_rig;                     /* --rig, or the first frame carries a rig */
     fp_exr_select_t sel;
     fp_exr_write_opts_t wopts;
     fp_integrate_data_t fog;
@@ -400,6 +401,36 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
     return FP_OK;
 }
 
+/* fp_scatter_commit for a frame: its messages (about the options and the
+ * rig together) name the file and the frame. */
+static int commit_light(const fp_params_t *q, const char *in_name, long frame,
+                        fp_scatter_data_t *d)
+{
+    fp_msgbuf_t kept = { NULL, 0, 0 };
+    fp_msgbuf_t *prev = fp_msg_capture(&kept);
+    int rc = fp_scatter_commit(q, d);
+    fp_msg_capture(prev);
+    int said = 0;
+    for (size_t i = 0; i < kept.len;) {
+        const char *line = kept.text + i, *nl = memchr(line, '\n', kept.len - i);
+        int n = (int)(nl ? (size_t)(nl - line) : kept.len - i);
+        i += (size_t)n + 1;
+        if (n >= 9 && strncmp(line, "fogpipe: ", 9) == 0) {
+            line += 9;
+            n -= 9;
+        }
+        if (n >= 9 && strncmp(line, "warning: ", 9) == 0)
+            fp_warn("%s: frame %ld: %.*s", in_name, frame, n - 9, line + 9);
+        else if (rc && !said++)
+            fp_error("%s: frame %ld: %.*s (with the rig the frame carries)", in_name, frame, n,
+                     line);
+    }
+    fp_msg_free(&kept);
+    if (rc && !said)
+        fp_error("%s: frame %ld: the rig's light cannot be used", in_name, frame);
+    return rc ? FP_ERR : FP_OK;
+}
+
 /* The frame's parameters (r->fp): the options with the frame's rig, and
  * the light stage committed again when what it is made from changed (an
  * animated lamp, another frame's shadow map). */
@@ -416,9 +447,8 @@ static int frame_params(run_t *r, const fp_rig_t *rig, const char *in_name, long
     if (key == r->light_key || r->p->cmd.print_camera)
         return FP_OK;
     fp_scatter_data_t d;
-    if ((rc = fp_scatter_commit(r->fp, &d)))
-        return fp_error("%s: frame %ld: the rig's light cannot be used (see above)", in_name,
-                        frame);
+    if ((rc = commit_light(r->fp, in_name, frame, &d)))
+        return rc;
     fp_scatter_release(&r->light);
     r->light = d;
     r->light_key = key;
@@ -586,11 +616,17 @@ static int setup(run_t *r)
     }
     w.dwa_level = fp_options_given(p, "dwa-level") ? (float) p->io.dwa_level : -1.0f;
     r->wopts = w;
+    /* --shadow-map without --sun: the sun may be the frames' (their rig),
+     * so the light is committed with the first frame (frame_params). */
+    fp_params_t q = *p;
+    int defer = r->has_rig && p->light.shadow_map && !fp_options_given(p, "sun");
+    if (defer)
+        q.light.shadow_map = NULL;
     int rc = fp_integrate_commit(p, &r->fog);
-    if (rc || (rc = fp_scatter_commit(p, &r->light)))
+    if (rc || (rc = fp_scatter_commit(&q, &r->light)))
         return rc;
     r->fp = p;
-    r->light_key = fp_rig_light_key(p);
+    r->light_key = fp_rig_light_key(p) ^ (uint64_t)defer;
     r->reference = p->fogmap.integrator == FP_INTEGRATOR_REFERENCE;
     r->buffers = fp_buffers_active(p);
     r->use_cl = !p->io.cpu;
@@ -734,7 +770,7 @@ static int run_stream_input(run_t *r, const fp_frame_list_t *labels)
 /* --rig FILE, the run's up axis and look (src/rig.h). */
 static int rig_setup(run_t *r)
 {
-    return fp_rig_run_setup(r->p, &r->rigfile);
+    return fp_rig_run_setup(r->p, &r->rigfile, &r->has_rig);
 }
 
 static int run_files(run_t *r)

@@ -97,8 +97,9 @@ int fp_rig_prescan(fp_params_t *p, const fp_rig_file_t *file, const fp_rig_t *fi
 
 /* --rig FILE loaded into *file (NULL without), then fp_rig_prescan with
  * the first input frame's rig (a file input's header read once more; its
- * errors, if any, are the frame loop's to report). */
-int fp_rig_run_setup(fp_params_t *p, fp_rig_file_t **file);
+ * errors, if any, are the frame loop's to report).  *has_rig: the file or
+ * that frame carries a rig. */
+int fp_rig_run_setup(fp_params_t *p, fp_rig_file_t **file, int *has_rig);
 /* A single input file's frame number: --frame, else the number its name
  * ends with (fp_seq_frame_of_name), else 1. */
 long fp_rig_single_frame(const fp_params_t *p);

@@ -105,10 +105,11 @@ static int is_stream(const char *s) { return !s || strcmp(s, "-") == 0; }
 /* --rig FILE, and the run's up axis and look: from the rig file, else the
  * first frame's rig (its header read once more here; its errors, if any,
  * are the frame loop's to report). */
-int fp_rig_run_setup(fp_params_t *p, fp_rig_file_t **file)
+int fp_rig_run_setup(fp_params_t *p, fp_rig_file_t **file, int *has_rig)
 {
     int rc;
     *file = NULL;
+    *has_rig = 0;
     if (p->io.rig && (rc = fp_rig_file_load(p->io.rig, file)))
         return rc;
     fp_rig_t first;
@@ -129,6 +130,7 @@ int fp_rig_run_setup(fp_params_t *p, fp_rig_file_t **file)
         fp_msg_capture(prev);
         fp_msg_free(&quiet);
     }
+    *has_rig = *file || first.any;
     rc = fp_rig_prescan(p, *file, &first, path, frame);
     fp_rig_free(&first);
     return rc;

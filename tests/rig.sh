@@ -108,6 +108,10 @@ check "... as --shadow-map" sh -c '"$1" -i "$2" -o "$3" $4 --sun 0.3,1,0.2 --sun
   sh "$FOGPIPE" "$P" "$T/m2.exr" "$FOG" "$S/shadow.####.exr" "$IDIFF" "$T/m.exr"
 check "... which shadows the fog" sh -c '"$1" -i "$2" -o "$3" $4 --sun 0.3,1,0.2 --sun-color 1,1,0.75 \
   --sun-intensity 2 && ! "$5" -q -fail 0 "$3" "$6"' sh "$FOGPIPE" "$P" "$T/m3.exr" "$FOG" "$IDIFF" "$T/m.exr"
+check "--shadow-map for the frame's sun" sh -c '"$1" -i "$2" -o "$3" $4 --shadow-map "$5" && "$6" -q -fail 0 "$3" "$7"' \
+  sh "$FOGPIPE" "$S/m.0001.exr" "$T/m5.exr" "$FOG" "$S/shadow.####.exr" "$IDIFF" "$T/m.exr"
+fails "--shadow-map for a frame whose rig has no sun" 1 "c.0001.exr: frame 1: --shadow-map: the shadows are the sun's; give --sun too \\(with the rig" \
+  "$T/x.exr" "$FOGPIPE" -i "$T/c.0001.exr" -o "$T/x.exr" $FOG --shadow-map "$S/shadow.####.exr"
 mats=$("$OIIOTOOL" --info -v "$S/shadow.0001.exr" | awk -F': ' '/worldToCamera:/ { c = $2 } /worldToNDC:/ { n = $2 }
   END { gsub(",", "", c); gsub(",", "", n); print "fogpipe-camera 1 worldToCamera " c " worldToNDC " n }')
 "$OIIOTOOL" --nosoftwareattrib "$S/shadow.0001.exr" --eraseattrib "worldTo.*" --attrib Note "$mats" \
