@@ -53,7 +53,7 @@ const fp_option_group_t fp_option_groups[] = {
     { "Fog", fp_integrate_options },
     { "Fogmap (wavelet fog)", fp_fogmap_options },
     { "Light (sun, local lights, shadows)", fp_scatter_options },
-    { "Rig (the host's lights, up axis, clip start)", fp_rig_options },
+    { "Rig (from the host)", fp_rig_options },
     { "Monte Carlo reference", fp_reference_options },
     { "Fog buffers (blur, resolution)", fp_buffers_options },
     { "Animation", fp_animate_options },

@@ -464,6 +464,9 @@ static void test_frame_of_name(void **state)
     long f = -1;
     assert_true(fp_seq_frame_of_name("shots/shot.0002.exr", &f) && f == 2);
     assert_true(fp_seq_frame_of_name("render_v0017.exr", &f) && f == 17);
+    assert_true(fp_seq_frame_of_name("render_17.exr", &f) && f == 17);
+    assert_false(fp_seq_frame_of_name("huge_b44.exr", &f));
+    assert_false(fp_seq_frame_of_name("p3.exr", &f));
     assert_true(fp_seq_frame_of_name("0100.exr", &f) && f == 100);
     assert_false(fp_seq_frame_of_name("shot.exr", &f));
     assert_false(fp_seq_frame_of_name("v2.0/shot", &f));
