@@ -401,9 +401,10 @@ int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
     if (FP_CL_ARG(s->kernel, 12, color))
         return FP_ERR;
     /* integrate_height's lanes start every ray at the camera: an
-     * orthographic camera's rays start on its plane, and go through
-     * integrate_fog (fp_view_origin_at). */
-    if (d->fp[FP_F_HAS_MAP] == 0 && !v->ortho)
+     * orthographic camera's rays start on its plane, and rays from a clip
+     * plane each at their own point: they go through integrate_fog
+     * (fp_view_origin_at). */
+    if (d->fp[FP_F_HAS_MAP] == 0 && !v->ortho && !(v->clip > 0))
         return launch_height(s, v, pix, npix, color, fog, 0, s->depth);
     return fp_integrate_cl_launch(s, s->kernel, v, pix, npix, fog, "integrate_fog");
 }
@@ -412,7 +413,7 @@ int fp_integrate_over_ok(const fp_integrate_cl_t *s, const fp_integrate_data_t *
                          const fp_view_t *v, const float *rgba)
 {
     return s->host_align && s->height_over && (uintptr_t)rgba % s->host_align == 0 &&
-           d->fp[FP_F_HAS_MAP] == 0 && !v->ortho;
+           d->fp[FP_F_HAS_MAP] == 0 && !v->ortho && !(v->clip > 0);
 }
 
 int fp_integrate_over_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d, const fp_view_t *v,

@@ -566,8 +566,11 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
 static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long frame)
 {
     char path[4096];
-    int rc = fp_seq_format(p->light.shadow_map, frame, path, sizeof path);
-    if (rc)
+    int rc = FP_OK;
+    /* A frame's rig names its own map: no frame number in it. */
+    if (p->light.shadow_map_literal)
+        snprintf(path, sizeof path, "%s", p->light.shadow_map);
+    else if ((rc = fp_seq_format(p->light.shadow_map, frame, path, sizeof path)))
         return rc;
     void *buf = NULL;
     size_t size = 0;
@@ -580,11 +583,12 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     if ((rc = fp_exr_read_memory(buf, size, path, frame, &sel, &f)))
         return rc;
     const fp_frame_info_t *info = fp_frame_info(f);
-    if (!info->has_world_to_ndc || !info->has_world_to_camera) {
+    /* The sun camera: its header's matrices, or its fogpipe-camera text
+     * (a map rendered in Blender with the add-on). */
+    double w2c[16], w2n[16];
+    if ((rc = fp_camera_matrices(info, path, frame, "shadow map", w2c, w2n))) {
         fp_frame_free(f);
-        return fp_error("%s: frame %ld: shadow map without worldToCamera and worldToNDC in its "
-                        "header (expected the sun camera's matrices, as fogpipe-scene writes them)",
-                        path, frame);
+        return rc;
     }
     size_t n = (size_t)info->width * info->height;
     float *z = malloc(n * sizeof *z);
@@ -610,7 +614,7 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
         for (int c = 0; c < 3; c++)
             f2w[r * 4 + c] = e[r][c];
     f2w[15] = 1;
-    fp_mat4_mul(f2w, info->world_to_ndc, m);
+    fp_mat4_mul(f2w, w2n, m);
     double sx = (double)info->disp_w / info->width, sy = (double)info->disp_h / info->height;
     double ox = (double)(info->data_x0 - info->disp_x0) / info->disp_w;
     double oy = (double)(info->data_y0 - info->disp_y0) / info->disp_h;
@@ -622,7 +626,7 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
         d->lt[FP_LT_SM_NDC + r * 4 + 3] = m[r * 4 + 3];
     }
     double c[16];
-    fp_mat4_mul(f2w, info->world_to_camera, c);
+    fp_mat4_mul(f2w, w2c, c);
     for (int r = 0; r < 4; r++)
         d->lt[FP_LT_SM_Z + r] = c[r * 4 + 2];
     d->lt[FP_LT_SM_W] = info->width;

@@ -57,6 +57,10 @@ inline float3 fp_view_ray(__constant const float *view, int x, int y, float dept
             scale = 1.0f / depth;
     }
     *len = sky ? INFINITY : l * scale;
+    /* From the clip plane (fp_view_origin_at): l * clip along the ray. */
+    float clip = view[FP_VIEW_CLIP];
+    if (clip > 0.0f && !sky)
+        *len = fmax(*len - l * clip, 0.0f);
     return d / l;
 }
 
@@ -66,7 +70,9 @@ inline float3 fp_view_ray(__constant const float *view, int x, int y, float dept
 inline float3 fp_view_origin_at(__constant const float *view, int x, int y)
 {
     float3 o = (float3)(view[0], view[1], view[2]);
-    if (view[FP_VIEW_ORTHO] == 0.0f)
+    int ortho = view[FP_VIEW_ORTHO] != 0.0f;
+    float clip = view[FP_VIEW_CLIP];
+    if (!ortho && !(clip > 0.0f))
         return o;
     __constant const float *h = view + FP_VIEW_H;
     __constant const float *m = view + FP_VIEW_M;
@@ -75,7 +81,16 @@ inline float3 fp_view_origin_at(__constant const float *view, int x, int y)
     float cw = h[6] * nx + h[7] * ny + h[8];
     float px = (h[0] * nx + h[1] * ny + h[2]) / cw;
     float py = (h[3] * nx + h[4] * ny + h[5]) / cw;
-    return o + (float3)(m[0] * px + m[1] * py, m[3] * px + m[4] * py, m[6] * px + m[7] * py);
+    if (ortho)
+        o += (float3)(m[0] * px + m[1] * py, m[3] * px + m[4] * py, m[6] * px + m[7] * py);
+    if (clip > 0.0f) {
+        /* To the clip plane: the camera vector (x/z, y/z, 1) (orthographic:
+         * (0, 0, 1)) times the planar depth. */
+        float cx = ortho ? 0.0f : px, cy = ortho ? 0.0f : py;
+        o += clip * (float3)(m[0] * cx + m[1] * cy + m[2], m[3] * cx + m[4] * cy + m[5],
+                             m[6] * cx + m[7] * cy + m[8]);
+    }
+    return o;
 }
 
 /* The pixel (x, y) a work-item of a per-pixel fog kernel computes and the

@@ -111,6 +111,14 @@ __kernel void scatter_lights(__global const float *restrict depth,
     fp_lnr scale = kind == FP_DEPTH_PLANAR ? dv
                    : kind == FP_DEPTH_RADIAL ? dv / sqrt(cx * cx + cy * cy + 1.0f) : 1.0f / dv;
     fp_lnr len = sky ? FP_LN(INFINITY) : l * scale;
+    float clip = view[FP_VIEW_CLIP];
+    if (clip > 0.0f) {
+        /* From the clip plane (fp_view_origin_at): l * clip along the ray. */
+        len = sky ? len : fmax(len - l * clip, 0.0f);
+        ox += clip * dx;
+        oy += clip * dy;
+        oz += clip * dz;
+    }
     dx /= l;
     dy /= l;
     dz /= l;

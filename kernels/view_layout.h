@@ -12,5 +12,6 @@
 #define FP_VIEW_FAR 25
 #define FP_VIEW_DEPTH_KIND 26
 #define FP_VIEW_ORTHO 27      /* 1: orthographic (rays along the view axis from the camera's plane) */
+#define FP_VIEW_CLIP 28       /* clip start: the fog begins at this planar depth (0: at the camera) */
 
 #endif

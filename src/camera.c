@@ -43,6 +43,10 @@ const fp_option_t fp_camera_options[] = {
       "what depth holds: camera-space z, distance along the ray, or 1/z", NULL, 0 },
     { "far", 0, FP_OPT_REAL, CAM(far), 0, 0, "inf", 0, INFINITY, NULL, "D",
       "depth at or beyond this is sky", NULL, 0 },
+    { "clip-start", 0, FP_OPT_REAL, CAM(clip_start), 0, 0, "0", 0, 1e9, NULL, "D",
+      "the fog starts at planar depth D from the camera, as Cycles' camera rays start at "
+      "its clip start (orthographic: D along the view axis); surfaces nearer get no fog "
+      "(default: the frame's rig, else 0)", NULL, 0 },
     FP_OPT_END
 };
 
@@ -531,6 +535,21 @@ static void chan_check(const fp_camera_params_t *cp, const fp_frame_info_t *info
             "--chan-sensor W,H; see README 'From Nuke')", where_file, frame, cp->chan, msg);
 }
 
+int fp_camera_matrices(const fp_frame_info_t *info, const char *where_file, long frame,
+                       const char *what, double w2c[16], double w2n[16])
+{
+    if (info->has_world_to_camera && info->has_world_to_ndc) {
+        memcpy(w2c, info->world_to_camera, 16 * sizeof *w2c);
+        memcpy(w2n, info->world_to_ndc, 16 * sizeof *w2n);
+        return FP_OK;
+    }
+    if (info->camera_text[0])
+        return parse_camera_text(info, where_file, frame, w2c, w2n);
+    return fp_error("%s: frame %ld: %s without a camera (expected worldToCamera and worldToNDC "
+                    "in its header, or a string attribute 'fogpipe-camera 1 ...' as Blender's "
+                    "add-on writes into the Note)", where_file, frame, what);
+}
+
 int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
                       const char *where_file, long frame, fp_camera_t *out)
 {
@@ -722,6 +741,7 @@ int fp_view_setup(const fp_camera_t *c, const fp_params_t *p,
     v.width = info->width;
     v.height = info->height;
     v.ortho = c->ortho;
+    v.clip = p->camera.clip_start;
     *out = v;
     return FP_OK;
 }
@@ -783,17 +803,28 @@ void fp_view_ray(const fp_view_t *v, int x, int y, float depth, double dir[3], d
     for (int i = 0; i < 3; i++)
         dir[i] = d[i] / l;
     *len = sky ? INFINITY : l * scale;
+    /* From the clip plane (planar depth clip: l * clip along the ray). */
+    if (v->clip > 0 && !sky)
+        *len = fmax(*len - l * v->clip, 0);
 }
 
 void fp_view_origin_at(const fp_view_t *v, int x, int y, double o[3])
 {
     memcpy(o, v->origin, 3 * sizeof(double));
-    if (!v->ortho)
+    if (!v->ortho && !(v->clip > 0))
         return;
     double p[2];
     view_cam(v, x, y, p);
-    for (int i = 0; i < 3; i++)
-        o[i] += v->m[i * 3] * p[0] + v->m[i * 3 + 1] * p[1];
+    if (v->ortho)
+        for (int i = 0; i < 3; i++)
+            o[i] += v->m[i * 3] * p[0] + v->m[i * 3 + 1] * p[1];
+    if (v->clip > 0) {
+        /* To the clip plane: the camera vector (x/z, y/z, 1) (orthographic:
+         * (0, 0, 1)) times the planar depth. */
+        double c[3] = { v->ortho ? 0 : p[0], v->ortho ? 0 : p[1], 1 };
+        for (int i = 0; i < 3; i++)
+            o[i] += v->clip * (v->m[i * 3] * c[0] + v->m[i * 3 + 1] * c[1] + v->m[i * 3 + 2]);
+    }
 }
 
 void fp_view_pack(const fp_view_t *v, float out[FP_VIEW_FLOATS])
@@ -812,4 +843,5 @@ void fp_view_pack(const fp_view_t *v, float out[FP_VIEW_FLOATS])
     out[25] = (float)v->far;
     out[26] = (float)v->depth_kind;
     out[27] = (float)v->ortho;
+    out[28] = (float)v->clip;
 }

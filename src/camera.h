@@ -28,6 +28,13 @@ typedef struct fp_camera_t {
 int fp_camera_resolve(const fp_params_t *p, const fp_frame_info_t *info,
                       const char *where_file, long frame, fp_camera_t *out);
 
+/* The camera matrices a frame carries (OpenEXR's row-vector
+ * worldToCamera and worldToNDC): its header's, else those of its
+ * "fogpipe-camera 1 ..." text.  An error naming the file and frame when
+ * it has neither (`what` says what the frame is: "shadow map"). */
+int fp_camera_matrices(const fp_frame_info_t *info, const char *where_file, long frame,
+                       const char *what, double w2c[16], double w2n[16]);
+
 void fp_camera_print(FILE *out, const fp_camera_t *c, const fp_frame_info_t *info,
                      const char *where_file, long frame);
 
@@ -42,6 +49,9 @@ typedef struct fp_view_t {
     int depth_kind;        /* FP_DEPTH_* */
     int width, height;     /* data window size */
     int ortho;             /* orthographic: rays start on the camera's plane (fp_view_origin_at) */
+    double clip;           /* clip start: the fog begins on the plane at this planar depth
+                              (Cycles' camera rays start there; orthographic: along the view
+                              axis from the camera's plane); 0: at the camera */
 } fp_view_t;
 
 void fp_world_to_fog(int up, const double w[3], double f[3]);
@@ -54,11 +64,14 @@ int fp_view_setup(const fp_camera_t *c, const fp_params_t *p,
 int fp_view_is_sky(const fp_view_t *v, float depth, int *suspicious);
 
 /* The view ray of pixel (x, y) of the data window with its depth sample:
- * unit direction in fog space and length (INFINITY for sky). */
+ * unit direction in fog space and length (INFINITY for sky), from where
+ * the fog starts (fp_view_origin_at): the clip plane, so that the length
+ * is the surface's distance less the clip's along the ray, at least 0. */
 void fp_view_ray(const fp_view_t *v, int x, int y, float depth,
                  double dir[3], double *len);
 /* Where that ray starts, fog space: the camera, or for an orthographic
- * camera the pixel's point on the camera's plane. */
+ * camera the pixel's point on the camera's plane; moved along the ray to
+ * the clip plane (v->clip > 0). */
 void fp_view_origin_at(const fp_view_t *v, int x, int y, double o[3]);
 
 /* Layout of the view for kernels (kernels/fp_common.h, FP_VIEW_*). */

@@ -10,7 +10,8 @@
  *   exr_zip.c     the ZIP / ZIPS codec of the chunk workers (libdeflate);
  *   exr_stream.c  stream framing: one EXR file at a time from a pipe;
  *   exr_check.c   an image's bytes checked against the image budget and
- *                 against its own size before anything is decoded. */
+ *                 against its own size before anything is decoded;
+ *   exr_rig.c     the rig's attributes picked up from a header (src/rig.h). */
 #ifndef FP_EXR_INTERNAL_H
 #define FP_EXR_INTERNAL_H
 
@@ -267,5 +268,12 @@ static inline uint64_t fp_exr_rd_u64(const uint8_t *p)
 {
     return (uint64_t) fp_exr_rd_u32(p) | (uint64_t) fp_exr_rd_u32(p + 4) << 32;
 }
+
+/* exr_rig.c: one attribute of a header into the frame's rig attributes:
+ * 1 when it is one of the typed fogpipe* attributes (kept, or its wrong
+ * type kept as an error), 0 otherwise; a string attribute holding the
+ * rig's or the look's text form is kept too (and 0 returned). */
+int fp_exr_rig_attr(const exr_attribute_t *a, fp_rig_attrs_t *r);
+void fp_exr_rig_attrs_free(fp_rig_attrs_t *r);
 
 #endif

@@ -743,7 +743,8 @@ static void read_matrix(fp_frame_t *f, const char *name, int *has, double m[16])
 
 /* String attributes that describe the camera without OpenEXR's matrices:
  * "fogpipe-camera ..." text (Blender's stamp Note written by
- * samples/blender/fogpipe_camera.py) and Blender's stamp "Lens". */
+ * samples/blender/fogpipe_camera.py) and Blender's stamp "Lens"; and the
+ * rig (its text form in any string attribute, its typed attributes). */
 static void read_camera_text(fp_frame_t *f, fp_frame_info_t *in)
 {
     for (int p = 0; p < f->num_parts; ++p) {
@@ -753,8 +754,8 @@ static void read_camera_text(fp_frame_t *f, fp_frame_info_t *in)
         for (int32_t i = 0; i < n; ++i) {
             const exr_attribute_t *a = NULL;
             if (exr_get_attribute_by_index(f->ctx, p, EXR_ATTR_LIST_FILE_ORDER, i, &a) !=
-                    EXR_ERR_SUCCESS || !a || a->type != EXR_ATTR_STRING || !a->string ||
-                !a->string->str)
+                    EXR_ERR_SUCCESS || !a || fp_exr_rig_attr(a, &in->rig) ||
+                a->type != EXR_ATTR_STRING || !a->string || !a->string->str)
                 continue;
             int len = a->string->length;
             char v[sizeof in->camera_text];
@@ -1026,6 +1027,7 @@ void fp_frame_free(fp_frame_t *f)
         exr_finish(&f->ctx);
         fp_exr_tl_msg = saved;
     }
+    fp_exr_rig_attrs_free(&f->info.rig);
     free(f->rgba_mem);
     free(f->depth_mem);
     free(f->buf);

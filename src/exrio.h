@@ -29,6 +29,23 @@ typedef struct fp_exr_select_t {
 } fp_exr_select_t;
 #define FP_EXR_SELECT_INITIALIZER { NULL, NULL, 1, 1 }
 
+/* The rig (src/rig.h) as a frame's header carries it: the text form in any
+ * string attribute (Blender's stamp Note) and the typed attributes.  The
+ * strings are the frame's (fp_frame_free frees them); NULL when absent. */
+typedef struct fp_rig_attrs_t {
+    char *text;                /* a string attribute holding "fogpipe-rig ..." */
+    char text_attr[256];       /* its name */
+    char *rig;                 /* fogpipeRig (the whole text form) */
+    char *up;                  /* fogpipeUp */
+    char *shadow_map;          /* fogpipeShadowMap */
+    char *look;                /* fogpipeLook, else a string attribute holding "fogpipe-look" */
+    char look_attr[256];       /* its name */
+    int has_version, version;  /* fogpipeRigVersion */
+    int has_clip;              /* fogpipeClipStart */
+    double clip;
+    char bad[320];             /* a fogpipe* attribute of the wrong type, said as an error */
+} fp_rig_attrs_t;
+
 typedef struct fp_frame_info_t {
     /* Data window: the pixels we hold, width*height of them. */
     int data_x0, data_y0, width, height;
@@ -58,6 +75,7 @@ typedef struct fp_frame_info_t {
     /* The focal length in mm from a "Lens" attribute (Blender's stamp, "50.00
      * mm"), 0 if none: checked against a .chan file's field of view. */
     double lens_mm;
+    fp_rig_attrs_t rig;
 } fp_frame_info_t;
 
 /* Decode an EXR image held in memory.  Takes ownership of `buf` (from

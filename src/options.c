@@ -26,6 +26,7 @@ extern const fp_option_t fp_color_options[];
 extern const fp_option_t fp_aov_options[];
 extern const fp_option_t fp_preview_options[];
 extern const fp_option_t fp_run_options[];
+extern const fp_option_t fp_rig_options[];
 
 #define CMD(f) offsetof(fp_params_t, cmd.f)
 static const fp_option_t cmd_options[] = {
@@ -52,6 +53,7 @@ const fp_option_group_t fp_option_groups[] = {
     { "Fog", fp_integrate_options },
     { "Fogmap (wavelet fog)", fp_fogmap_options },
     { "Light (sun, local lights, shadows)", fp_scatter_options },
+    { "Rig (from the host)", fp_rig_options },
     { "Monte Carlo reference", fp_reference_options },
     { "Fog buffers (blur, resolution)", fp_buffers_options },
     { "Animation", fp_animate_options },
@@ -380,6 +382,98 @@ int fp_options_load_preset(fp_params_t *p, const char *arg)
     if (rc == FP_OK && got < 0)
         rc = t.rc;
     fp_text_close(&t);
+    return rc;
+}
+
+/* The groups a look may set (fp_options_apply_look): the fog's look, not
+ * what a run reads or writes. */
+static int look_safe(const fp_option_t *o)
+{
+    static const fp_option_t *const groups[] = { fp_integrate_options, fp_scatter_options,
+                                                 fp_buffers_options, fp_animate_options };
+    if (o->flags & FP_OPTF_CLI_ONLY)
+        return 0;
+    if (o->type == FP_OPT_STRING && strcmp(o->name, "phase") != 0)
+        return 0;   /* file names and light specs: the command line's */
+    for (size_t g = 0; g < FP_ARRAY_LEN(groups); g++)
+        for (const fp_option_t *x = groups[g]; x->name; x++)
+            if (x == o)
+                return 1;
+    return 0;
+}
+
+int fp_options_apply_look(fp_params_t *p, const char *text, const char *origin)
+{
+    const char *s = strstr(text, "fogpipe-look");
+    if (!s)
+        return fp_usage_error("%s: expected 'fogpipe-look 1 name=value ...'", origin);
+    s += strlen("fogpipe-look");
+    int first = 1, rc = FP_OK;
+    const int given_before = p->num_given;
+    const char *given[FP_MAX_GIVEN];
+    memcpy(given, p->given, sizeof given);
+    for (;;) {
+        while (*s && (isspace((unsigned char)*s) || *s == ';'))
+            s++;
+        if (!*s)
+            break;
+        size_t n = 0;
+        while (s[n] && !isspace((unsigned char)s[n]) && s[n] != ';')
+            n++;
+        char tok[512];
+        if (n >= sizeof tok)
+            return fp_usage_error("%s: a look entry longer than %zu characters (expected "
+                                  "name=value)", origin, sizeof tok - 1);
+        memcpy(tok, s, n);
+        tok[n] = 0;
+        s += n;
+        if (first) {
+            if (strcmp(tok, "1") != 0)
+                return fp_usage_error("%s: 'fogpipe-look %.40s' (expected version 1)", origin,
+                                      tok);
+            first = 0;
+            continue;
+        }
+        if (strncmp(tok, "fogpipe-", 8) == 0)
+            break;   /* the next section */
+        char *eq = strchr(tok, '=');
+        if (!eq || eq == tok || !eq[1])
+            return fp_usage_error("%s: look entry '%.100s' (expected name=value)", origin, tok);
+        *eq = 0;
+        const char *name = strncmp(tok, "--", 2) == 0 ? tok + 2 : tok;
+        const fp_option_t *o = fp_options_find(name);
+        if (!o)
+            return fp_usage_error("%s: look: unknown option '%.100s' (see fogpipe --help)",
+                                  origin, name);
+        if (!look_safe(o))
+            return fp_usage_error("%s: look: --%s is not part of a fog look (expected the "
+                                  "fog's, light's, buffers' or animation's settings)", origin,
+                                  o->name);
+        /* Checked whether it is used or not (a bad look is the frame's
+         * error either way), on a scratch set of parameters. */
+        fp_params_t *scratch = malloc(sizeof *scratch);
+        if (!scratch)
+            return fp_error("out of memory");
+        if ((rc = fp_options_defaults(scratch)) == FP_OK)
+            rc = fp_options_apply(scratch, o->name, eq + 1, origin);
+        fp_options_free(scratch);
+        free(scratch);
+        if (rc)
+            return rc;
+        /* Under the command line and --preset: set there (any alias of
+         * the field) wins. */
+        int taken = 0;
+        for (int i = 0; i < given_before; i++) {
+            const fp_option_t *g = fp_options_find(given[i]);
+            taken |= g && g->offset == o->offset;
+        }
+        if (taken)
+            continue;
+        if ((rc = fp_options_apply(p, o->name, eq + 1, origin)))
+            return rc;
+    }
+    if (first)
+        return fp_usage_error("%s: expected 'fogpipe-look 1 name=value ...'", origin);
     return rc;
 }
 

@@ -59,6 +59,14 @@ int fp_options_parse(int argc, char **argv, fp_params_t *p);
 int fp_options_apply(fp_params_t *p, const char *name, const char *value,
                      const char *origin);
 int fp_options_load_preset(fp_params_t *p, const char *path);
+/* The look a frame or a rig file carries (src/rig.h): "fogpipe-look 1
+ * name=value ..." (whitespace or ';' between pairs, names as the long
+ * options), applied as a preset's lines are but under the command line and
+ * --preset (an option already set there, or through an alias of its field,
+ * is left as it is).  Only the fog's look is taken (the Fog, Light, Fog
+ * buffers and Animation groups, no file names): anything else is an error
+ * naming `origin`. */
+int fp_options_apply_look(fp_params_t *p, const char *text, const char *origin);
 const fp_option_t *fp_options_find(const char *name);
 int fp_options_given(const fp_params_t *p, const char *name);
 /* --help, generated from the tables; markdown=1 writes the README table. */

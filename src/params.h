@@ -28,6 +28,8 @@ typedef struct fp_io_params_t {
     char *device;
     int cpu;              /* C reference instead of OpenCL */
     char *preset;
+    char *rig;            /* --rig FILE: the rig as JSON (src/rig.h) */
+    int frame;            /* --frame N: a single input file's frame number */
     int quiet;
     int verbose;
 } fp_io_params_t;
@@ -45,6 +47,7 @@ typedef struct fp_camera_params_t {
     int up;               /* FP_UP_Y / FP_UP_Z */
     int depth_kind;       /* FP_DEPTH_* */
     double far;           /* depth beyond this is sky */
+    double clip_start;    /* fog starts at this planar depth (Cycles' clip start) */
 } fp_camera_params_t;
 
 typedef struct fp_fog_params_t {
@@ -100,6 +103,7 @@ typedef struct fp_animate_params_t {
 /* Local and extra directional lights: no fixed limit (fp_light_append,
  * filters/scatter.h); FP_MAX_LIGHTS only bounds what one run may hold. */
 #define FP_MAX_LIGHTS 65536
+enum { FP_LIGHTS_FRAME = 0, FP_LIGHTS_NONE = 1 };
 enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN };
 enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP, FP_SELF_SHADOW_AUTO };
 enum { FP_LIGHT_QUAD_FAST = 0, FP_LIGHT_QUAD_PANELS };
@@ -133,7 +137,10 @@ typedef struct fp_light_params_t {
     char *light;          /* the last --light as given; every one parsed into lights[] */
     fp_light_t *lights;   /* num_lights of them (fp_light_append; freed by fp_options_free) */
     int num_lights, cap_lights;
+    int lights_from;      /* FP_LIGHTS_FRAME / FP_LIGHTS_NONE: the rig's lights (src/rig.h) */
     char *shadow_map;     /* pattern of the sun's depth maps */
+    int shadow_map_literal; /* shadow_map is one file's name (a frame's rig): no frame
+                               number expanded in it */
     int shadows;          /* FP_SHADOWS_* */
     double shadow_bias;   /* scene units, added to each texel's own */
     int shadow_filter;    /* edge ramps, texels each side (0: hard) */

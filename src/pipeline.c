@@ -16,6 +16,7 @@
 #include "reference.h"
 #include "options.h"
 #include "seq.h"
+#include "rig.h"
 
 #include <errno.h>
 #include <math.h>
@@ -36,6 +37,9 @@ const fp_option_t fp_io_options[] = {
     { "frames", 'f', FP_OPT_STRING, IO(frames), 0, 0, NULL, 0, 0, NULL, "LIST",
       "frames of a sequence: 1001-1100, 1-100x2, 5, -3, 1,3,7-9 (default: all found on disk; "
       "for a stream, the numbers given to its frames)", NULL, 0 },
+    { "frame", 0, FP_OPT_INT, IO(frame), 0, 0, NULL, -1e9, 1e9, NULL, "N",
+      "the frame number of a single input file, for animated fog and the rig's per-frame "
+      "values (default: the number its name ends with, shot.0002.exr: 2; else 1)", NULL, 0 },
     { "depth", 0, FP_OPT_STRING, IO(depth), 0, 0, NULL, 0, 0, NULL, "PATTERN",
       "take depth from a separate EXR sequence (same frame numbers and data window)", NULL, 0 },
     { "color-layer", 0, FP_OPT_STRING, IO(color_layer), 0, 0, NULL, 0, 0, NULL, "PREFIX",
@@ -100,6 +104,13 @@ const fp_option_t fp_run_options[] = {
 
 typedef struct run_t {
     fp_params_t *p;
+    /* The frame's parameters (the calling thread's, process_frame): p with
+     * the frame's rig applied (src/rig.h); p itself when it has none. */
+    fp_params_t *fp;
+    fp_params_t fq;                  /* what fp points to with a rig */
+    fp_rig_file_t *rigfile;          /* --rig FILE */
+    uint64_t light_key;              /* what `light` was committed from (fp_rig_light_key) */
+    int has_rig;                     /* --rig, or the first frame carries a rig */
     fp_exr_select_t sel;
     fp_exr_write_opts_t wopts;
     fp_integrate_data_t fog;
@@ -226,7 +237,7 @@ static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
 static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, const int *pix,
                        size_t npix, float *fog)
 {
-    fp_params_t *p = r->p;
+    fp_params_t *p = r->fp;
     size_t n = pix ? npix : (size_t)view->width * view->height;
     if (r->reference)
         return r->use_cl
@@ -249,7 +260,7 @@ static int compute_fog(run_t *r, const fp_view_t *view, const float *depth, cons
 static int frame_fog(run_t *r, const fp_view_t *view, const float *depth, const char *in_name,
                      long frame, float *fog)
 {
-    fp_params_t *p = r->p;
+    fp_params_t *p = r->fp;
     int w = view->width, h = view->height, rc = FP_OK;
     size_t n = (size_t)w * h;
     int res = p->buffers.resolution > 1 ? p->buffers.resolution : 1;
@@ -324,7 +335,7 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
                          float *fog, int layer, fp_color_frame_t *color, double *ms,
                          double *decompose_ms)
 {
-    fp_params_t *p = r->p;
+    fp_params_t *p = r->fp;
     double t0 = fp_now_ms();
     fp_view_t view;
     int rc;
@@ -390,9 +401,67 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
     return FP_OK;
 }
 
+/* fp_scatter_commit for a frame: its messages (about the options and the
+ * rig together) name the file and the frame. */
+static int commit_light(const fp_params_t *q, const char *in_name, long frame,
+                        fp_scatter_data_t *d)
+{
+    fp_msgbuf_t kept = { NULL, 0, 0 };
+    fp_msgbuf_t *prev = fp_msg_capture(&kept);
+    int rc = fp_scatter_commit(q, d);
+    fp_msg_capture(prev);
+    int said = 0;
+    for (size_t i = 0; i < kept.len;) {
+        const char *line = kept.text + i, *nl = memchr(line, '\n', kept.len - i);
+        int n = (int)(nl ? (size_t)(nl - line) : kept.len - i);
+        i += (size_t)n + 1;
+        if (n >= 9 && strncmp(line, "fogpipe: ", 9) == 0) {
+            line += 9;
+            n -= 9;
+        }
+        if (n >= 9 && strncmp(line, "warning: ", 9) == 0)
+            fp_warn("%s: frame %ld: %.*s", in_name, frame, n - 9, line + 9);
+        else if (rc && !said++)
+            fp_error("%s: frame %ld: %.*s (with the rig the frame carries)", in_name, frame, n,
+                     line);
+    }
+    fp_msg_free(&kept);
+    if (rc && !said)
+        fp_error("%s: frame %ld: the rig's light cannot be used", in_name, frame);
+    return rc ? FP_ERR : FP_OK;
+}
+
+/* The frame's parameters (r->fp): the options with the frame's rig, and
+ * the light stage committed again when what it is made from changed (an
+ * animated lamp, another frame's shadow map). */
+static int frame_params(run_t *r, const fp_rig_t *rig, const char *in_name, long frame)
+{
+    r->fp = r->p;
+    int rc;
+    if (rig->any) {
+        if ((rc = fp_rig_apply(r->p, rig, in_name, frame, &r->fq)))
+            return rc;
+        r->fp = &r->fq;
+    }
+    uint64_t key = fp_rig_light_key(r->fp);
+    if (key == r->light_key || r->p->cmd.print_camera)
+        return FP_OK;
+    fp_scatter_data_t d;
+    if ((rc = commit_light(r->fp, in_name, frame, &d)))
+        return rc;
+    fp_scatter_release(&r->light);
+    r->light = d;
+    r->light_key = key;
+    /* Light the first frames did not have: the device's light stage now. */
+    if (r->use_cl && r->cl && r->light.active && !r->scl.cl &&
+        (rc = fp_scatter_cl_init(r->cl, &r->scl)))
+        return rc;
+    return FP_OK;
+}
+
 /* Stage 2, calling thread (it owns the device): fog one decoded frame and
- * composite it in place. */
-static int process_frame(run_t *r, fp_loop_job_t *job)
+ * composite it in place, with the frame's parameters (frame_params). */
+static int process_frame_with(run_t *r, fp_loop_job_t *job, const fp_rig_t *rig)
 {
     fp_params_t *p = r->p;
     frame_state_t *fs = job->data;
@@ -402,10 +471,12 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     int rc;
     const fp_frame_info_t *info = fp_frame_info(f);
     fp_camera_t cam;
-    if ((rc = fp_camera_resolve(p, info, in_name, frame, &cam)))
+    if ((rc = fp_camera_resolve(r->fp, info, in_name, frame, &cam)))
         return rc;
     if (p->cmd.print_camera) {
         fp_camera_print(stdout, &cam, info, in_name, frame);
+        if (rig->any || r->rigfile)
+            fp_rig_print(stdout, rig, r->fp);
         return FP_OK;
     }
     size_t n = (size_t)info->width * info->height;
@@ -424,6 +495,22 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     fp_aov_write_opts(p, &fs->aov, &fs->wopts);
     job->ms[FP_T_COMPOSITE] += fp_now_ms() - t_aov;
     return FP_OK;
+}
+
+static int process_frame(run_t *r, fp_loop_job_t *job)
+{
+    frame_state_t *fs = job->data;
+    fp_rig_t rig;
+    /* This frame's rig (what it carries, under --rig's) over the options. */
+    int rc = fp_rig_frame(r->rigfile, fp_frame_info(fs->f), job->in, job->frame, &rig);
+    if (rc)
+        return rc;
+    if ((rc = frame_params(r, &rig, job->in, job->frame)) == FP_OK)
+        rc = process_frame_with(r, job, &rig);
+    fp_rig_params_release(&r->fq);
+    r->fp = r->p;
+    fp_rig_free(&rig);
+    return rc;
 }
 
 /* Stage 3, writer thread (frames arrive in order): encode the frame and
@@ -529,9 +616,17 @@ static int setup(run_t *r)
     }
     w.dwa_level = fp_options_given(p, "dwa-level") ? (float) p->io.dwa_level : -1.0f;
     r->wopts = w;
+    /* --shadow-map without --sun: the sun may be the frames' (their rig),
+     * so the light is committed with the first frame (frame_params). */
+    fp_params_t q = *p;
+    int defer = r->has_rig && p->light.shadow_map && !fp_options_given(p, "sun");
+    if (defer)
+        q.light.shadow_map = NULL;
     int rc = fp_integrate_commit(p, &r->fog);
-    if (rc || (rc = fp_scatter_commit(p, &r->light)))
+    if (rc || (rc = fp_scatter_commit(&q, &r->light)))
         return rc;
+    r->fp = p;
+    r->light_key = fp_rig_light_key(p) ^ (uint64_t)defer;
     r->reference = p->fogmap.integrator == FP_INTEGRATOR_REFERENCE;
     r->buffers = fp_buffers_active(p);
     r->use_cl = !p->io.cpu;
@@ -672,6 +767,12 @@ static int run_stream_input(run_t *r, const fp_frame_list_t *labels)
     return run_loop(r, next_stream, labels ? (long)labels->count : 0);
 }
 
+/* --rig FILE, the run's up axis and look (src/rig.h). */
+static int rig_setup(run_t *r)
+{
+    return fp_rig_run_setup(r->p, &r->rigfile, &r->has_rig);
+}
+
 static int run_files(run_t *r)
 {
     fp_params_t *p = r->p;
@@ -684,6 +785,9 @@ static int run_files(run_t *r)
     fp_frame_list_t frames = { NULL, 0 };
     unsigned char *skip = NULL;
     int rc = FP_OK;
+    if (fp_options_given(p, "frame") && (in_seq || p->io.frames))
+        return fp_usage_error("--frame %d: only for a single input file without --frames (a "
+                              "sequence's frames: --frames)", p->io.frame);
     if (in_seq) {
         if (!out_stream && !out_seq && !p->cmd.print_camera)
             return fp_usage_error("%s: output of a sequence must be a sequence pattern "
@@ -700,7 +804,7 @@ static int run_files(run_t *r)
             frames.frames = malloc(sizeof(long));
             if (!frames.frames)
                 return fp_error("out of memory");
-            frames.frames[0] = 1;
+            frames.frames[0] = fp_rig_single_frame(p);
             frames.count = 1;
         }
     }
@@ -758,6 +862,8 @@ static void run_release(run_t *r)
     fp_color_release(&r->color);
     fp_fogmap_release(&r->fogmap);
     fp_scatter_release(&r->light);
+    fp_rig_file_free(r->rigfile);
+    r->rigfile = NULL;
     if (r->cl) {
         fp_scatter_cl_release(&r->scl);
         if (r->reference)
@@ -781,6 +887,8 @@ int fp_pipeline_run(fp_params_t *p)
     memset(&r, 0, sizeof r);
     r.p = p;
     int rc = fp_image_limits_apply(p->run.max_image_pixels);
+    if (rc == FP_OK && !p->fogmap.preview)
+        rc = rig_setup(&r);
     if (rc == FP_OK)
         rc = setup(&r);
     if (rc == FP_OK && p->fogmap.preview) {

@@ -241,3 +241,27 @@ void fp_frames_free(fp_frame_list_t *l)
     l->frames = NULL;
     l->count = 0;
 }
+
+int fp_seq_frame_of_name(const char *path, long *frame)
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    const char *dot = strrchr(base, '.');
+    if (!dot || dot == base)
+        return 0;
+    const char *e = dot, *b = dot;
+    while (b > base && isdigit((unsigned char)b[-1]))
+        b--;
+    /* At most 9 digits: a frame number, not a date or a hash; after a
+     * letter, at least 4 (a padded number, as Blender's #### writes: not
+     * the 44 of "huge_b44" or the 3 of "p3"). */
+    if (b == e || e - b > 9)
+        return 0;
+    if (b > base && isalpha((unsigned char)b[-1]) && e - b < 4)
+        return 0;
+    long v = 0;
+    for (const char *c = b; c < e; c++)
+        v = v * 10 + (*c - '0');
+    *frame = v;
+    return 1;
+}

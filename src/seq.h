@@ -35,4 +35,11 @@ int fp_frames_scan(const char *pattern, fp_frame_list_t *out);
 
 void fp_frames_free(fp_frame_list_t *l);
 
+/* The frame number a single file's name carries, as a sequence's file
+ * names do: the digits just before its extension ("shot.0002.exr": 2,
+ * "render_0017.exr": 17, "shot0017.exr": 17; after a letter at least 4
+ * digits: "p3.exr" and "huge_b44.exr" carry none).  1 with *frame set, 0
+ * when the name ends in no such number before its extension. */
+int fp_seq_frame_of_name(const char *path, long *frame);
+
 #endif

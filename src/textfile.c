@@ -94,6 +94,63 @@ void fp_text_close(fp_text_t *t)
     memset(t, 0, sizeof *t);
 }
 
+int fp_text_read_all(const char *path, const char *what, int err_usage, char **out,
+                     size_t *len)
+{
+    *out = NULL;
+    *len = 0;
+    fp_text_t t;
+    int rc = fp_text_open(&t, path, what, err_usage);
+    if (rc)
+        return rc;
+    size_t n = 0, cap = 4096;
+    char *buf = malloc(cap);
+    int c;
+    rc = t.rc;
+    if (!buf) {
+        fp_error("%s: out of memory", path);
+        goto fail;
+    }
+    t.lineno = 1;
+    while ((c = getc(t.f)) != EOF) {
+        if (++t.bytes > FP_TEXT_MAX_BYTES) {
+            (err_usage ? fp_usage_error : fp_error)(
+                "%s: more than %lld MiB (expected a %s: text of at most %lld MiB)", path,
+                (long long)(FP_TEXT_MAX_BYTES >> 20), what, (long long)(FP_TEXT_MAX_BYTES >> 20));
+            goto fail;
+        }
+        if (c == 0) {
+            (err_usage ? fp_usage_error : fp_error)("%s:%d: a NUL byte (expected a %s, a text "
+                                                    "file)", path, t.lineno, what);
+            goto fail;
+        }
+        t.lineno += c == '\n';
+        if (n + 1 >= cap) {
+            char *b = realloc(buf, cap * 2);
+            if (!b) {
+                fp_error("%s: out of memory", path);
+                goto fail;
+            }
+            buf = b;
+            cap *= 2;
+        }
+        buf[n++] = (char)c;
+    }
+    if (ferror(t.f)) {
+        (err_usage ? fp_usage_error : fp_error)("%s: read error (%s)", path, strerror(errno));
+        goto fail;
+    }
+    buf[n] = 0;
+    fp_text_close(&t);
+    *out = buf;
+    *len = n;
+    return FP_OK;
+fail:
+    free(buf);
+    fp_text_close(&t);
+    return rc;
+}
+
 int64_t fp_image_file_max_bytes(void)
 {
     const fp_image_limits_t *l = fp_image_limits();

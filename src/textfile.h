@@ -41,6 +41,12 @@ int fp_text_next(fp_text_t *t, char **line);
 
 void fp_text_close(fp_text_t *t);
 
+/* The whole of a text input (a JSON rig file, whose one line may be long)
+ * into a malloc'd, NUL-terminated *out of *len bytes: at most 16 MiB and
+ * no NUL byte, else the message fp_text_next would give. */
+int fp_text_read_all(const char *path, const char *what, int err_usage, char **out,
+                     size_t *len);
+
 /* An image file about to be read by a reader that cannot be bounded from
  * outside (OpenImageIO): FP_OK when `path` is a regular file no larger
  * than the image budget allows (fp_image_limits: its pixels times four
