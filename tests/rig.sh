@@ -36,7 +36,7 @@ check "... without a rig, --print-camera says what it said" sh -c '
   "$1" --print-camera -i "$2" > "$3" && [ "$(wc -l < "$3")" = 6 ]' sh "$FOGPIPE" "$P" "$T/pc0.txt"
 
 # The rig's sun and lights are the flags' sun and lights.
-LIGHTS="--light point:0,2,5:10,8,6:1 --light spot:1,3,2:5,5,5:1:0,-1,0:$(awk 'BEGIN { c = cos(30 * atan2(0, -1) / 180); printf "%.17g", atan2(sqrt(1 - (c + (1 - c) * 0.2)^2), c + (1 - c) * 0.2) * 180 / atan2(0, -1) }'),30"
+LIGHTS="--light point:0,2,5:10,8,6:1:0.1 --light spot:1,3,2:5,5,5:1:0,-1,0:cycles:60,0.2:0.2"
 check "a frame with the rig" "$FOGPIPE" -i "$T/n.0001.exr" -o "$T/n.exr" $FOG
 check "a plate with the same as flags" "$FOGPIPE" -i "$P" -o "$T/f.exr" $FOG --sun 0.3,1,0.2 \
   --sun-color 1,1,0.75 --sun-intensity 2 $LIGHTS
