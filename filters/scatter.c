@@ -3,6 +3,7 @@
 #include "fp.h"
 #include "options.h"
 #include "seq.h"
+#include "shadowcheck.h"
 #include "shafts.h"
 
 #include <math.h>
@@ -460,6 +461,11 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     const double *l = d->lt + FP_LT_SUN_DIR;
     double slope = sqrt(l[0] * l[0] + l[2] * l[2]) / fmax(l[1], 0.05);
     d->lt[FP_LT_SM_BIAS] = p->light.shadow_bias;
+    /* Casters and gaps too thin for the map (filters/shadowcheck.h): a
+     * depth step of two texels of level ground under this sun. */
+    fp_shadowcheck_frame(path, frame, z, info->width, info->height, gx > 0 ? 1 / gx : 0,
+                         gy > 0 ? 1 / gy : 0, 2 * texel * fmax(1, slope) + p->light.shadow_bias,
+                         d->lt + FP_LT_SM_NDC, d->lt + FP_LT_SM_Z, p->camera.up);
     float *packed = NULL;
     size_t np = 0;
     int levels = 0;
