@@ -13,7 +13,7 @@
 #include "integrate.h"
 #include "params.h"
 
-#define FP_LT_COUNT_ 240   /* kernels/light_core.h FP_LT_COUNT */
+#define FP_LT_COUNT_ 243   /* kernels/light_core.h FP_LT_COUNT */
 #define FP_SCATTER_MAX_STEPS 256
 
 /* Per run (commit) and per frame (fp_scatter_frame): the light parameters
