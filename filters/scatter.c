@@ -209,6 +209,10 @@ const fp_option_t fp_scatter_options[] = {
       "toward the sun over the camera's depth buffer (screen), both (map+screen: shadowed "
       "where either shadows, so casters too thin for the map that the camera sees shadow, "
       "and those outside the frame shadow through the map), or none", NULL, 0 },
+    { "wants", 0, FP_OPT_ENUM, LI(wants), 0, 0, "none", 0, 0, "none|shadow-map",
+      "none|shadow-map",
+      "what the look needs to be itself, for a preset to say: shadow-map (its shafts come from "
+      "the sun's shadow map: a warning, once, when a frame is fogged without one)", NULL, 0 },
     { "shadow-bias", 0, FP_OPT_REAL, LI(shadow_bias), 0, 0, "0", 0, 1e6, NULL, "D",
       "shadow map depth bias in scene units, added to each texel's own (half the depth's change "
       "across the texel on its surface, at most what level ground needs under this sun)", NULL, 0 },
@@ -705,6 +709,8 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
         if (rc)
             return rc;
     }
+    fp_shadowcheck_wants(p, (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
+                                (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN);
     int rc = fp_scatter_screen(d, v, depth, frame);
     if (rc)
         return rc;

@@ -325,3 +325,22 @@ void fp_shadowcheck_frame(const char *path, long frame, const float *z, int w, i
             t == &r.gap ? "gaps" : "casters", FP_SHADOWCHECK_TEXELS, need, nw, nh,
             FP_SHADOWCHECK_TEXELS);
 }
+
+static atomic_int wants_warned;
+
+void fp_shadowcheck_wants(const fp_params_t *p, int has_map)
+{
+    const fp_light_params_t *l = &p->light;
+    if (!l->wants || has_map || l->shadows != FP_SHADOWS_AUTO)
+        return;
+    int expect = 0;
+    if (!atomic_compare_exchange_strong(&wants_warned, &expect, 1))
+        return;
+    const char *preset = p->io.preset ? strrchr(p->io.preset, '/') : NULL;
+    preset = preset ? preset + 1 : p->io.preset ? p->io.preset : "the look";
+    fp_warn("%s wants the sun's shadow map (its shafts come from it) and runs without one: give "
+            "--shadow-map PATTERN (the sun's orthographic depth map per frame, as fogpipe-scene "
+            "or the Blender add-on writes it; or a frame's rig names it), or --shadows screen "
+            "or none to run without; its sun is the sample scene's, which a frame's own sun "
+            "(its rig) or --sun replaces", preset);
+}

@@ -73,4 +73,12 @@ void fp_shadowcheck_frame(const char *path, long frame, const float *z, int w, i
                           double texel_x, double texel_y, double step, const double *ndc,
                           const double *cz, int up);
 
+/* A look that wants the sun's shadow map (a preset's "wants =
+ * shadow-map") fogged without one (has_map 0) and without --shadows
+ * chosen: one warning per process naming the preset, what to give, and
+ * that its sun is the sample scene's (a frame's rig or --sun replaces
+ * it). */
+struct fp_params_t;
+void fp_shadowcheck_wants(const struct fp_params_t *p, int has_map);
+
 #endif

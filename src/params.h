@@ -134,6 +134,8 @@ typedef struct fp_light_params_t {
     int light_panels;
     int light_quad;       /* FP_LIGHT_QUAD_* */
     double interleave[2]; /* N x M pattern of per-pixel sample offsets */
+    int wants;            /* 1: the look wants the sun's shadow map (a preset's
+                             "wants = shadow-map"; filters/shadowcheck.h) */
 } fp_light_params_t;
 
 typedef struct fp_color_params_t {  /* filters/color.c */

@@ -4,6 +4,8 @@
 # wall's gaps 5 texels across: one warning per run, naming the map, the
 # frame, the caster's width and place and the map that would hold it; -v
 # prints every frame's report; at 2048 texels (10 across) nothing is said.
+# Presets that want a shadow map (wants = shadow-map) warn once when run
+# without one, naming what to give and whose sun theirs is.
 . "${FP_SRCDIR:-.}/tests/lib.sh"
 "$FP_SCENE" -o "$T/a" --width 64 --height 36 --frames 1-2 --shadow-size 1024 >/dev/null
 "$FP_SCENE" -o "$T/b" --width 64 --height 36 --frames 1-1 --shadow-size 2048 >/dev/null
@@ -26,4 +28,22 @@ check "a 2048-texel map: silent" sh -c \
 check "-q: no warning" sh -c \
   "\"\$0\" -q --progress off --sun -0.4,0.35,0.6 --shadow-map '$T/a/shadow.####.exr' \
    -i '$T/a/scene.####.exr' -o '$T/o.####.exr' 2>'$T/q.txt' && ! test -s '$T/q.txt'" "$FOGPIPE"
+P="$FP_SRCDIR/samples/presets"
+for look in low-sun-shafts morning-valley-mist; do
+  check "$look without a shadow map, two frames: exit 0" sh -c \
+    "\"\$0\" --progress off --preset '$P/$look.preset' -i '$T/a/scene.####.exr' \
+     -o '$T/o.####.exr' 2>'$T/want.txt'" "$FOGPIPE"
+  check "... one warning, naming the preset, what to give and whose sun it is" sh -c \
+    "test \$(wc -l <'$T/want.txt') = 1 &&
+     grep -q '$look.preset wants the sun.s shadow map .*give --shadow-map PATTERN.*its sun is the sample scene.s, which a frame.s own sun (its rig) or --sun replaces' '$T/want.txt'"
+done
+check "with its map: no such warning" sh -c \
+  "\"\$0\" --progress off --preset '$P/low-sun-shafts.preset' --shadow-map '$T/b/shadow.####.exr' \
+   -i '$T/b/scene.####.exr' -o '$T/o.####.exr' 2>'$T/w2.txt' && ! grep -q wants '$T/w2.txt'" "$FOGPIPE"
+check "--shadows none chosen: no warning" sh -c \
+  "\"\$0\" --progress off --preset '$P/low-sun-shafts.preset' --shadows none \
+   -i '$T/b/scene.####.exr' -o '$T/o.####.exr' 2>'$T/w3.txt' && ! test -s '$T/w3.txt'" "$FOGPIPE"
+check "night-street-lamps wants nothing: no warning" sh -c \
+  "\"\$0\" --progress off --preset '$P/night-street-lamps.preset' \
+   -i '$T/b/scene.####.exr' -o '$T/o.####.exr' 2>'$T/w4.txt' && ! test -s '$T/w4.txt'" "$FOGPIPE"
 finish
