@@ -2759,7 +2759,8 @@ static void test_shafts_screen(void **state)
  * thin-caster scene with a 0.4 m map (the 5 and 10 cm pillars fall
  * between its texels; the camera sees them); the combined light is below
  * both the map's and the walk's alone on some rays (each adds shadow the
- * other lacks), and the OpenCL kernel gives the same. */
+ * other lacks) and closer to the scene's own visibility than either, and
+ * the OpenCL kernel gives the same. */
 static double both_vis(void *ctx, const double p[3])
 {
     const screen_vis_t *c = ctx;
@@ -2805,6 +2806,7 @@ static void test_shafts_map_screen(void **state)
     screen_vis_t sv = { r.sd.lt, view, r.sd.smap, w, h };
     double worst = 0, smax = 0, got[16], want[16];
     int darker = 0;
+    double err_map = 0, err_walk = 0, err_both = 0, sum_ex = 0;
     const int nr = 12;
     for (int k = 0; k < nr; k++) {
         int x = 8 + (k * 37) % (w - 16), y = h / 2 - 2 + (k * 3) % 8;
@@ -2817,6 +2819,11 @@ static void test_shafts_map_screen(void **state)
         double m = fp_scatter_sun_brute(&r.sd, &r.fog, o, d, len, 50000, map_vis, &sv);
         double ss = fp_scatter_sun_brute(&r.sd, &r.fog, o, d, len, 50000, walk_vis, &sv);
         darker += want[k] < (1 - 1e-3) * fmin(m, ss);
+        double ex = fp_scatter_sun_brute(&r.sd, &r.fog, o, d, len, 50000, caster_vis, &s);
+        err_map += fabs(m - ex);
+        err_walk += fabs(ss - ex);
+        err_both += fabs(want[k] - ex);
+        sum_ex += ex;
         assert_true(want[k] <= fmin(m, ss) * (1 + 1e-9) + 1e-12);
         smax = fmax(smax, want[k]);
     }
@@ -2832,6 +2839,12 @@ static void test_shafts_map_screen(void **state)
                   "%.3g over %d rays (tolerance 2e-4); %d rays darker than both alone\n", worst,
                   nr, darker);
     assert_true(darker >= 2);
+    print_message("against the scene's own visibility (the exact answer, 50000 steps), mean "
+                  "|error| over the rays relative to their mean light: map %.4f, walk %.4f, "
+                  "map+screen %.4f\n", err_map / sum_ex, err_walk / sum_ex, err_both / sum_ex);
+    /* The map loses the thin pillars, the walk what the camera cannot
+     * see (measured: 0.0048, 0.0040, 0.0034). */
+    assert_true(err_both < err_map && err_both < err_walk);
     /* The kernel: the same buffer on the device. */
     cl_rig_t cr;
     cl_rig_open(&cr);
