@@ -176,7 +176,7 @@ static int features(const unsigned char *wx, const unsigned char *wy, int w, int
             if ((c += hist[median]) * 2 >= count)
                 break;
         int length = x1 - x0 > y1 - y0 ? x1 - x0 + 1 : y1 - y0 + 1;
-        if (length < lim || length < 2 * median)
+        if (length < 4 || length < 2 * median || 128 * length < (w > h ? w : h))
             continue;
         t->count++;
         if (t->found && (median > t->width || (median == t->width && length <= t->length)))

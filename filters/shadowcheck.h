@@ -19,9 +19,11 @@
  * infinitely far).  A texel's width is the smaller of its widths along
  * the map's x and y; texels narrower than FP_SHADOWCHECK_TEXELS form
  * 4-connected features, and a feature counts when it is long for its
- * width (at least 8 texels, and twice its median width): a caster's
+ * width (at least 4 texels, and twice its median width): a caster's
  * silhouette, not the tip of a roof or the corner of a box, where rows
- * cross a wide object narrowly for a few texels. */
+ * cross a wide object narrowly for a few texels; and at least 1/128 of
+ * the map's side (a sliver of a 4096-texel map 7 texels long is 1/600 of
+ * what the map covers: no shaft to speak of). */
 #ifndef FP_SHADOWCHECK_H
 #define FP_SHADOWCHECK_H
 
