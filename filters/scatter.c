@@ -3,6 +3,7 @@
 #include "fp.h"
 #include "options.h"
 #include "seq.h"
+#include "shadowcheck.h"
 #include "shafts.h"
 
 #include <math.h>
@@ -330,10 +331,16 @@ const fp_option_t fp_scatter_options[] = {
     { "shadow-map", 0, FP_OPT_STRING, LI(shadow_map), 0, 0, NULL, 0, 0, NULL, "PATTERN",
       "the sun's depth map per frame: orthographic, camera-space depth Z, worldToCamera and "
       "worldToNDC in its header (as fogpipe-scene writes shadow.####.exr)", NULL, 0 },
-    { "shadows", 0, FP_OPT_ENUM, LI(shadows), 0, 0, "auto", 0, 0, "auto|none|map|screen",
-      "auto|none|map|screen",
+    { "shadows", 0, FP_OPT_ENUM, LI(shadows), 0, 0, "auto", 0, 0,
+      "auto|none|map|screen|map+screen", "auto|none|map|screen|map+screen",
       "the sun's shadows in the fog: from --shadow-map (auto: when given), by marching "
-      "toward the sun over the camera's depth buffer (screen), or none", NULL, 0 },
+      "toward the sun over the camera's depth buffer (screen), both (map+screen: shadowed "
+      "where either shadows, so casters too thin for the map that the camera sees shadow, "
+      "and those outside the frame shadow through the map), or none", NULL, 0 },
+    { "wants", 0, FP_OPT_ENUM, LI(wants), 0, 0, "none", 0, 0, "none|shadow-map",
+      "none|shadow-map",
+      "what the look needs to be itself, for a preset to say: shadow-map (its shafts come from "
+      "the sun's shadow map: a warning, once, when a frame is fogged without one)", NULL, 0 },
     { "shadow-bias", 0, FP_OPT_REAL, LI(shadow_bias), 0, 0, "0", 0, 1e6, NULL, "D",
       "shadow map depth bias in scene units, added to each texel's own (half the depth's change "
       "across the texel on its surface, at most what level ground needs under this sun)", NULL, 0 },
@@ -471,8 +478,10 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
     int shadows = l->shadows;
     if (shadows == FP_SHADOWS_AUTO)
         shadows = l->shadow_map ? FP_SHADOWS_WITH_MAP : FP_SHADOWS_OFF;
-    if (shadows == FP_SHADOWS_WITH_MAP && !l->shadow_map)
-        return fp_usage_error("--shadows map: needs --shadow-map PATTERN");
+    if ((shadows == FP_SHADOWS_WITH_MAP || shadows == FP_SHADOWS_WITH_MAP_SCREEN) &&
+        !l->shadow_map)
+        return fp_usage_error("--shadows %s: needs --shadow-map PATTERN",
+                              shadows == FP_SHADOWS_WITH_MAP ? "map" : "map+screen");
     if (l->shadow_map && !sun)
         return fp_usage_error("--shadow-map: the shadows are the sun's; give --sun too");
     lt[FP_LT_ALBEDO] = l->albedo;
@@ -494,7 +503,9 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
     lt[FP_LT_SHADOWS] = !sun ? (dirs && shadows == FP_SHADOWS_WITH_SCREEN ? FP_SHADOWS_SCREEN
                                                                           : FP_SHADOWS_NONE)
                         : shadows == FP_SHADOWS_WITH_MAP ? FP_SHADOWS_MAP
-                        : shadows == FP_SHADOWS_WITH_SCREEN ? FP_SHADOWS_SCREEN : FP_SHADOWS_NONE;
+                        : shadows == FP_SHADOWS_WITH_SCREEN ? FP_SHADOWS_SCREEN
+                        : shadows == FP_SHADOWS_WITH_MAP_SCREEN ? FP_SHADOWS_MAP_SCREEN
+                                                                : FP_SHADOWS_NONE;
     lt[FP_LT_SELF] = l->self_shadow == FP_SELF_SHADOW_OFF ? FP_SELF_OFF
                      : l->self_shadow == FP_SELF_SHADOW_EXACT ? FP_SELF_EXACT : FP_SELF_MAP;
     lt[FP_LT_STEPS] = l->scatter_steps;
@@ -655,6 +666,11 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     const double *l = d->lt + FP_LT_SUN_DIR;
     double slope = sqrt(l[0] * l[0] + l[2] * l[2]) / fmax(l[1], 0.05);
     d->lt[FP_LT_SM_BIAS] = p->light.shadow_bias;
+    /* Casters and gaps too thin for the map (filters/shadowcheck.h): a
+     * depth step of two texels of level ground under this sun. */
+    fp_shadowcheck_frame(path, frame, z, info->width, info->height, gx > 0 ? 1 / gx : 0,
+                         gy > 0 ? 1 / gy : 0, 2 * texel * fmax(1, slope) + p->light.shadow_bias,
+                         d->lt + FP_LT_SM_NDC, d->lt + FP_LT_SM_Z, p->camera.up);
     float *packed = NULL;
     size_t np = 0;
     int levels = 0;
@@ -807,7 +823,8 @@ static _Atomic unsigned long serial;
 int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *depth, long frame)
 {
     double *lt = d->lt;
-    if (!d->active || (int)lt[FP_LT_SHADOWS] != FP_SHADOWS_SCREEN)
+    int both = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN;
+    if (!d->active || ((int)lt[FP_LT_SHADOWS] != FP_SHADOWS_SCREEN && !both))
         return FP_OK;
     /* The deepest thing the depth buffer shows: no shadow reaches beyond
      * it (fp_shafts_screen). */
@@ -835,18 +852,39 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
     free(z);
     if (bad)
         return fp_error("frame %ld: out of memory", frame);
+    if (both) {
+        /* map+screen: after the shadow map's floats in one buffer
+         * (kernels/light_core.h fp_ss_zpyr), the map kept. */
+        size_t nm = fp_shafts_size((int)lt[FP_LT_SM_W], (int)lt[FP_LT_SM_H],
+                                   (int)lt[FP_LT_SM_LEVELS]);
+        float *all = d->smap && d->smap_n >= nm ? malloc((nm + np) * sizeof *all) : NULL;
+        if (!all) {
+            free(packed);
+            return fp_error("frame %ld: %s", frame,
+                            d->smap ? "out of memory" : "--shadows map+screen without its map");
+        }
+        memcpy(all, d->smap, nm * sizeof *all);
+        memcpy(all + nm, packed, np * sizeof *all);
+        free(packed);
+        packed = all;
+        np += nm;
+    } else {
+        d->smap_w = v->width;
+        d->smap_h = v->height;
+        lt[FP_LT_SM_W] = v->width;
+        lt[FP_LT_SM_H] = v->height;
+        lt[FP_LT_SM_LEVELS] = levels;
+    }
     free(d->smap);
     d->smap = packed;
     d->smap_n = np;
-    d->smap_w = v->width;
-    d->smap_h = v->height;
-    lt[FP_LT_SM_W] = v->width;
-    lt[FP_LT_SM_H] = v->height;
+    lt[FP_LT_SS_PW] = v->width;
+    lt[FP_LT_SS_PH] = v->height;
+    lt[FP_LT_SS_PLEVELS] = levels;
     for (int i = 0; i < 2; i++) {
         lt[FP_LT_SS_NDC + i] = v->ndc_scale[i];
         lt[FP_LT_SS_NDC + 2 + i] = v->ndc_offset[i];
     }
-    lt[FP_LT_SM_LEVELS] = levels;
     d->serial = ++serial;
     return FP_OK;
 }
@@ -861,11 +899,14 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
      * (x/z, y/z, 1) -> NDC. */
     if (fp_mat3_inverse(v->m, lt + FP_LT_SS_M) || fp_mat3_inverse(v->h, lt + FP_LT_SS_H))
         return fp_error("frame %ld: the camera's matrices cannot be inverted", frame);
-    if ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP) {
+    if ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
+        (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN) {
         int rc = load_shadow_map(p, d, frame);
         if (rc)
             return rc;
     }
+    fp_shadowcheck_wants(p, (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
+                                (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN);
     int rc = fp_scatter_screen(d, v, depth, frame);
     if (rc)
         return rc;

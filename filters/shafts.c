@@ -94,6 +94,11 @@ static size_t packed_size(int w, int h, int nl)
     return total;
 }
 
+size_t fp_shafts_size(int w, int h, int levels)
+{
+    return packed_size(w, h, levels);
+}
+
 int fp_shafts_pyramid(const float *z, int w, int h, float **out, size_t *n, int *levels)
 {
     int nl = fp_shafts_levels(w, h);

@@ -23,4 +23,8 @@ int fp_shafts_pyramid(const float *z, int w, int h, float **out, size_t *n, int 
 /* Levels of the pyramid for a W x H map (one block at the last). */
 int fp_shafts_levels(int w, int h);
 
+/* Floats of a W x H map packed with its `levels` levels
+ * (kernels/light_core.h fp_pyr_size). */
+size_t fp_shafts_size(int w, int h, int levels);
+
 #endif

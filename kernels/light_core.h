@@ -29,7 +29,7 @@
 #define FP_LT_STEPS 16       /* segments along the view ray (deterministic) */
 #define FP_LT_PANELS 17      /* equiangular panels per local light (4 nodes each) */
 #define FP_LT_NLIGHTS 18
-#define FP_LT_SM_W 19        /* shadow map size, texels (--shadows screen: the depth buffer's) */
+#define FP_LT_SM_W 19        /* shadow map size, texels */
 #define FP_LT_SM_H 20
 #define FP_LT_SM_NDC 21      /* 16: fog point (row vector, w = 1) -> shadow map NDC */
 #define FP_LT_SM_Z 37        /* 4: fog point -> the map camera's z: dot(p, c) + c[3] */
@@ -63,11 +63,17 @@
 #define FP_LT_SS_ZMAX (FP_LT_GRID_W + 3)   /* --shadows screen: the depth buffer's deepest z */
 /* 4: --shadows screen: the depth buffer's own pixels -> NDC, scale x, y and
  * offset x, y (pixel i's center at (i + offset) scale), with its size in
- * FP_LT_SM_W, FP_LT_SM_H: the walk never takes them from the view traced,
+ * FP_LT_SS_PW, FP_LT_SS_PH: the walk never takes them from the view traced,
  * which may be another (--fog-resolution's strided view, walking the
  * frame's full-resolution depth buffer). */
 #define FP_LT_SS_NDC (FP_LT_GRID_W + 4)
-#define FP_LT_COUNT (FP_LT_GRID_W + 8)
+/* 3: the depth buffer's min-max pyramid for the walk (--shadows screen,
+ * map+screen): its size and levels.  Under map+screen it follows the
+ * shadow map's packed floats in the same buffer (fp_ss_zpyr). */
+#define FP_LT_SS_PW (FP_LT_GRID_W + 8)
+#define FP_LT_SS_PH (FP_LT_GRID_W + 9)
+#define FP_LT_SS_PLEVELS (FP_LT_GRID_W + 10)
+#define FP_LT_COUNT (FP_LT_GRID_W + 11)
 
 /* The lights: a table of their own (any number: a global buffer in
  * OpenCL), FP_LT_NLIGHTS local lights (point, spot, area) then
@@ -98,6 +104,7 @@
 #define FP_SHADOWS_NONE 0
 #define FP_SHADOWS_MAP 1
 #define FP_SHADOWS_SCREEN 2
+#define FP_SHADOWS_MAP_SCREEN 3   /* both: visibility = the map's x the walk's */
 
 #define FP_SELF_OFF 0
 #define FP_SELF_EXACT 1
@@ -327,6 +334,25 @@ FP_FN void fp_pyr_offsets(int W, int H, int nl, int *offs)
                                              ((H + (1 << (k - 1)) - 1) >> (k - 1));
 }
 
+/* Floats of a W x H pyramid with its nl levels (fp_shafts_size in
+ * filters/shafts.c). */
+FP_FN int fp_pyr_size(int W, int H, int nl)
+{
+    int n = W * H;
+    for (int k = 1; k <= nl; k++)
+        n += 2 * ((W + (1 << k) - 1) >> k) * ((H + (1 << k) - 1) >> k);
+    return n;
+}
+
+/* The depth buffer's pyramid the walk reads: the buffer itself under
+ * --shadows screen, after the shadow map's floats under map+screen. */
+FP_FN FP_GLOBAL const float *fp_ss_zpyr(FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *smap)
+{
+    if ((int)lt[FP_LT_SHADOWS] != FP_SHADOWS_MAP_SCREEN)
+        return smap;
+    return smap + fp_pyr_size((int)lt[FP_LT_SM_W], (int)lt[FP_LT_SM_H], (int)lt[FP_LT_SM_LEVELS]);
+}
+
 /* A walk over a pyramid leaves the block (bi, bj) of sz cells along the
  * line a + u e (in cells) at ue, through its x face or its y face: the
  * axis crossed moves one block on, the other stays within the block's row
@@ -359,7 +385,7 @@ FP_FN fp_real fp_ss_pixel(FP_CONSTANT const fp_real *lt, const fp_real *n, int a
  * returns their count.  A point stops at its first shadow.  zpyr: the
  * frame's scene z per pixel (+inf: sky) and its min-max pyramid, as the
  * shadow map's (fp_shafts_pyramid, filters/shafts.c), its size and pixel
- * mapping in lt (FP_LT_SM_W, FP_LT_SM_H, FP_LT_SS_NDC): a block whose
+ * mapping in lt (FP_LT_SS_PW, FP_LT_SS_PH, FP_LT_SS_NDC): a block whose
  * pixels cannot shadow the stretch is crossed in one step.  view: the
  * camera's origin and projection kind (the same for any resolution). */
 /* fp_ss_walk toward the direction (lx, ly, lz) (unit): the sun's, or an
@@ -400,7 +426,7 @@ FP_FN int fp_ss_walk_dir(FP_CONSTANT const fp_real *lt, fp_real lx, fp_real ly, 
     /* A hierarchical 2D DDA over the pixels of [a, b] within the screen,
      * in the parameter u of a + u (b - a). */
     fp_real ex = bx - ax, ey = by - ay, u0 = 0, u1 = 1;
-    int W = (int)lt[FP_LT_SM_W], H = (int)lt[FP_LT_SM_H], NL = (int)lt[FP_LT_SM_LEVELS];
+    int W = (int)lt[FP_LT_SS_PW], H = (int)lt[FP_LT_SS_PH], NL = (int)lt[FP_LT_SS_PLEVELS];
     fp_clip(ax, ex, 0, (fp_real)W, &u0, &u1);
     fp_clip(ay, ey, 0, (fp_real)H, &u0, &u1);
     if (!(u1 >= u0))
@@ -474,7 +500,7 @@ FP_FN fp_real fp_shadow_screen_dir(FP_CONSTANT const fp_real *lt, fp_real lx, fp
         return 1;
     fp_ss_ndc(h, c, view[FP_VIEW_ORTHO] != 0, 1, n);
     fp_real px = fp_ss_pixel(lt, n, 0), py = fp_ss_pixel(lt, n, 1);
-    if (!(px >= 0 && py >= 0 && px < lt[FP_LT_SM_W] && py < lt[FP_LT_SM_H]))
+    if (!(px >= 0 && py >= 0 && px < lt[FP_LT_SS_PW] && py < lt[FP_LT_SS_PH]))
         return 1;
     fp_real iv[2 * FP_SS_MAX_IV];
     return fp_ss_walk_dir(lt, lx, ly, lz, view, zpyr, x, y, z, 0, 0, 0, 0, 0, px, py, 1, iv) > 0
@@ -503,6 +529,10 @@ FP_FN fp_real fp_sun_visibility(FP_CONSTANT const fp_real *lt, FP_GLOBAL const f
         return fp_shadow_map(lt, smap, x, y, z);
     if (mode == FP_SHADOWS_SCREEN)
         return fp_shadow_screen(lt, view, smap, width, height, x, y, z);
+    if (mode == FP_SHADOWS_MAP_SCREEN)
+        return fp_shadow_map(lt, smap, x, y, z) > 0
+                   ? fp_shadow_screen(lt, view, fp_ss_zpyr(lt, smap), width, height, x, y, z)
+                   : (fp_real)0;
     return 1;
 }
 

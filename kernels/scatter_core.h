@@ -584,8 +584,7 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
     FP_CONSTANT const fp_real *l = lt + FP_LT_SUN_DIR;
     int kind = (int)ph[0];
     fp_real ph_sun = fp_phase(kind, ph[1], ph[2], dx * l[0] + dy * l[1] + dz * l[2]);
-    int shafts = lt[FP_LT_SUN_ON] != 0 && ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
-                                           (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN);
+    int shafts = lt[FP_LT_SUN_ON] != 0 && (int)lt[FP_LT_SHADOWS] != FP_SHADOWS_NONE;
     int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
     int sides = !(isinf(fp[FP_F_BOX]) && isinf(fp[FP_F_BOX + 2]) && isinf(fp[FP_F_BOX + 3]) &&
                   isinf(fp[FP_F_BOX + 5]));

@@ -185,6 +185,37 @@ FP_FN void fp_runs_emit(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp_real
     r->pending = 1;
 }
 
+/* The stretch [t0, t1] is lit by the map or not, and shadowed where the
+ * walk over the depth buffer says (--shadows map+screen: the sorted,
+ * disjoint intervals iv[0..n), *k the first that may still matter; the
+ * stretches come in order along the ray): the product of the two
+ * visibilities. */
+FP_FN void fp_runs_emit_vis(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
+                            FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
+                            FP_GLOBAL const float *coef, FP_GLOBAL const unsigned char *occ,
+                            FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid,
+                            fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
+                            fp_real dz, fp_real t0, fp_real t1, int lit, const fp_real *iv,
+                            int n, int *k)
+{
+    if (!lit || n == 0) {
+        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t0, t1, lit);
+        return;
+    }
+    while (*k < n && iv[2 * *k + 1] <= t0)
+        (*k)++;
+    fp_real t = t0;
+    for (int j = *k; j < n && iv[2 * j] < t1; j++) {
+        fp_real s0 = fmax(iv[2 * j], t), s1 = fmin(iv[2 * j + 1], t1);
+        if (!(s1 > s0))
+            continue;
+        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t, s0, 1);
+        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, s0, s1, 0);
+        t = s1;
+    }
+    fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t, t1, 1);
+}
+
 /* The accumulator of C along one ray, from ta. */
 FP_FN void fp_sun_acc_init(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
                            FP_CONSTANT const int *lvi, FP_CONSTANT const fp_real *lvf,
@@ -259,17 +290,20 @@ FP_FN fp_real fp_runs_finish(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp
 /* The sun's share along the ray over [ta, tb] (tb may be infinite where
  * the closed form applies), without albedo, E and the phase function:
  * int sigma tau V tau_sun dt.  h0: the longest step where C is carried;
- * od_total the ray's whole optical depth (what lies beyond a carried tb). */
+ * od_total the ray's whole optical depth (what lies beyond a carried tb);
+ * iv[0..niv): the stretches the depth buffer's walk shadows besides the
+ * map (--shadows map+screen; niv 0 otherwise). */
 FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                             FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                             FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
                             FP_GLOBAL const float *smap, FP_GLOBAL const float *grid,
                             fp_real ox, fp_real oy, fp_real oz, fp_real dx, fp_real dy,
                             fp_real dz, fp_real ta, fp_real tb, int layered, fp_real h0,
-                            fp_real od_total)
+                            fp_real od_total, const fp_real *iv, int niv)
 {
     fp_sun_acc_t acc, *a = &acc;
     fp_sun_acc_init(a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta, layered, h0);
+    int kiv = 0;
 
     /* The map's texel coordinates and depth along the ray: affine. */
     FP_CONSTANT const fp_real *m = lt + FP_LT_SM_NDC;
@@ -287,7 +321,8 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_runs_init(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta,
                  tex > 0 ? lt[FP_LT_SM_RADIUS] / tex : (fp_real)FP_INF);
 #define FP_EMIT(t0, t1, lit)                                                                    \
-    fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t0, t1, lit)
+    fp_runs_emit_vis(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t0, t1, lit, \
+                     iv, niv, &kiv)
 
     /* The map's rectangle: outside it everything is lit. */
     fp_real ma = ta, mb = tb;
@@ -358,23 +393,16 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
 }
 #undef FP_SUN_ARGS
 
-/* The sun's share along a view ray under --shadows screen: the runs from
- * the walk's intervals (fp_ss_walk, kernels/light_core.h, over zpyr: the
- * depth buffer's scene z and its pyramid, its size and pixels in lt, which
- * the view traced need not share), C as for the map. */
-FP_FN fp_real fp_shafts_screen(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
-                               FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
-                               FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
-                               FP_GLOBAL const float *grid, FP_CONSTANT const float *view,
-                               FP_GLOBAL const float *zpyr,
-                               fp_real ox, fp_real oy, fp_real oz, fp_real dx,
-                               fp_real dy, fp_real dz, fp_real ta, fp_real tb, int layered,
-                               fp_real h0, fp_real od_total)
+/* The stretches of the view ray over [ta, tb] that the walk over the
+ * depth buffer shadows (fp_ss_walk, kernels/light_core.h, over zpyr: the
+ * depth buffer's scene z and its pyramid, its size and pixels in lt,
+ * which the view traced need not share): sorted, disjoint, into iv;
+ * returns their count. */
+FP_FN int fp_shafts_screen_iv(FP_CONSTANT const fp_real *lt, FP_CONSTANT const float *view,
+                              FP_GLOBAL const float *zpyr, fp_real ox, fp_real oy, fp_real oz,
+                              fp_real dx, fp_real dy, fp_real dz, fp_real ta, fp_real tb,
+                              fp_real *iv)
 {
-    fp_sun_acc_t acc, *a = &acc;
-    fp_sun_acc_init(a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta, layered, h0);
-    fp_runs_t runs, *r = &runs;
-    fp_runs_init(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta, 0);
     /* Shadows reach only as far as the scene: beyond the deepest z it could
      * hold plus THICK and DIST, every sun ray is past it (the walk needs a
      * finite stretch). */
@@ -390,26 +418,57 @@ FP_FN fp_real fp_shafts_screen(FP_CONSTANT const fp_real *fp, FP_CONSTANT const 
         c[k] = m[3 * k] * q1[0] + m[3 * k + 1] * q1[1] + m[3 * k + 2] * q1[2];
     fp_ss_ndc(h, c, view[FP_VIEW_ORTHO] != 0, 1, nn);
     fp_real px = fp_ss_pixel(lt, nn, 0), py = fp_ss_pixel(lt, nn, 1);
-    fp_real iv[2 * FP_SS_MAX_IV];
     int n = isinf(tw) || !(c[2] > 0)
                 ? 0
                 : fp_ss_walk(lt, view, zpyr, ox, oy, oz, dx, dy, dz, ta, tw, px, py, 0, iv);
-    fp_real t = ta;
+    /* Clipped to [ta, tb]. */
+    int m2 = 0;
     for (int k = 0; k < n; k++) {
         fp_real s0 = fmax(iv[2 * k], ta), s1 = fmin(iv[2 * k + 1], tb);
         if (!(s1 > s0))
             continue;
-        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t, s0, 1);
-        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, s0, s1, 0);
-        t = s1;
+        iv[2 * m2] = s0;
+        iv[2 * m2 + 1] = s1;
+        m2++;
+    }
+    return m2;
+}
+
+/* The sun's share along a view ray under --shadows screen: the runs from
+ * the walk's intervals (fp_shafts_screen_iv), C as for the map. */
+FP_FN fp_real fp_shafts_screen(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
+                               FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
+                               FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
+                               FP_GLOBAL const float *grid, FP_CONSTANT const float *view,
+                               FP_GLOBAL const float *zpyr,
+                               fp_real ox, fp_real oy, fp_real oz, fp_real dx,
+                               fp_real dy, fp_real dz, fp_real ta, fp_real tb, int layered,
+                               fp_real h0, fp_real od_total)
+{
+    fp_sun_acc_t acc, *a = &acc;
+    fp_sun_acc_init(a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta, layered, h0);
+    fp_runs_t runs, *r = &runs;
+    fp_runs_init(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, ta, 0);
+    fp_real iv[2 * FP_SS_MAX_IV];
+    int n = fp_shafts_screen_iv(lt, view, zpyr, ox, oy, oz, dx, dy, dz, ta, tb, iv);
+    fp_real t = ta;
+    for (int k = 0; k < n; k++) {
+        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t, iv[2 * k],
+                     1);
+        fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, iv[2 * k],
+                     iv[2 * k + 1], 0);
+        t = iv[2 * k + 1];
     }
     fp_runs_emit(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, t, tb, 1);
     return fp_runs_finish(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, tb,
                           od_total);
 }
 
-/* S += w E_sun times the sun's share: the shadow map's walk, or the
- * depth buffer's (--shadows screen). */
+/* S += w E_sun times the sun's share: the shadow map's walk, the depth
+ * buffer's (--shadows screen), or both (map+screen: the map's walk with
+ * the depth buffer's shadowed stretches taken out of its lit runs, so a
+ * caster the map is too coarse for but the camera sees still shadows,
+ * and one outside the frame still shadows through the map). */
 FP_FN void fp_shafts_add(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
                          FP_CONSTANT const fp_real *lvf, FP_GLOBAL const float *coef,
                          FP_GLOBAL const unsigned char *occ, FP_CONSTANT const fp_real *lt,
@@ -419,11 +478,20 @@ FP_FN void fp_shafts_add(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
                          fp_real dz, fp_real ta, fp_real tb, int layered, fp_real h0,
                          fp_real od_total, fp_real w, fp_real *S)
 {
-    fp_real sun = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN
-                      ? fp_shafts_screen(fp, lvi, lvf, coef, occ, lt, grid, view, smap, ox,
-                                         oy, oz, dx, dy, dz, ta, tb, layered, h0, od_total)
-                      : fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx,
-                                      dy, dz, ta, tb, layered, h0, od_total);
+    int mode = (int)lt[FP_LT_SHADOWS];
+    fp_real sun;
+    if (mode == FP_SHADOWS_SCREEN) {
+        sun = fp_shafts_screen(fp, lvi, lvf, coef, occ, lt, grid, view, smap, ox, oy, oz, dx, dy,
+                               dz, ta, tb, layered, h0, od_total);
+    } else {
+        fp_real iv[2 * FP_SS_MAX_IV];
+        int niv = mode == FP_SHADOWS_MAP_SCREEN
+                      ? fp_shafts_screen_iv(lt, view, fp_ss_zpyr(lt, smap), ox, oy, oz, dx, dy,
+                                            dz, ta, tb, iv)
+                      : 0;
+        sun = fp_shafts_sun(fp, lvi, lvf, coef, occ, lt, smap, grid, ox, oy, oz, dx, dy, dz, ta,
+                            tb, layered, h0, od_total, iv, niv);
+    }
     for (int c = 0; c < 3; c++)
         S[c] += w * sun * lt[FP_LT_SUN_E + c];
 }

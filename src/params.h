@@ -104,7 +104,8 @@ typedef struct fp_animate_params_t {
  * filters/scatter.h); FP_MAX_LIGHTS only bounds what one run may hold. */
 #define FP_MAX_LIGHTS 65536
 enum { FP_LIGHTS_FRAME = 0, FP_LIGHTS_NONE = 1 };
-enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN };
+enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN,
+       FP_SHADOWS_WITH_MAP_SCREEN };
 enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP, FP_SELF_SHADOW_AUTO };
 enum { FP_LIGHT_QUAD_FAST = 0, FP_LIGHT_QUAD_PANELS };
 
@@ -153,6 +154,8 @@ typedef struct fp_light_params_t {
     int light_quad;       /* FP_LIGHT_QUAD_* */
     double interleave[2]; /* N x M pattern of per-pixel sample offsets */
     double light_cull;    /* per pixel, the most the lights left out may add (0: none left out) */
+    int wants;            /* 1: the look wants the sun's shadow map (a preset's
+                             "wants = shadow-map"; filters/shadowcheck.h) */
 } fp_light_params_t;
 
 typedef struct fp_color_params_t {  /* filters/color.c */

@@ -47,7 +47,7 @@ trap 'rm -rf "$tmp"' EXIT
   }
   mkdir -p "$tmp/tests"
   run_test test_phase | grep -E '^(normalization|pdf vs phase|mean cosine|sampled mu)' | sed 's/^/- phase functions, /'
-  run_test test_scatter | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C|shafts vs brute force|thin casters|--shadows screen)' |
+  run_test test_scatter | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C|shafts vs brute force|thin casters|--shadows screen|--shadows map\+screen|against the scene)' |
     sed 's/^/- /'
   if [ -x "$FP_BUILDDIR/tests/test_reference" ]; then
     run_test test_reference |
@@ -55,6 +55,10 @@ trap 'rm -rf "$tmp"' EXIT
       sed 's/^ray /slab, ray /; s/^48 rays/fogmap transmittance, 48 rays/; s/^default: /sun single scattering vs quadrature (stratified, residual tracking): /; s/^plain: /the same, plain delta and ratio tracking: /; s/^\([0-9]*x[0-9]*\), reference/deterministic against the reference on the sample scene, \1: reference/; s/^/- Monte Carlo reference, /'
   fi
   echo
+  # The user's shadow map (issue 23): map, map+screen, the walk against a
+  # fine map; what the map check says.
+  mkdir -p "$tmp/shadows"
+  FP_SRCDIR="${FP_SRCDIR:-.}" sh "${FP_SRCDIR:-.}/tests/bench_shadows.sh" "$tmp/shadows" && echo
   # Whole pipeline: frames/s from --stats (the frame loop's wall time: the
   # device and program set-up before the first frame are left out), best of
   # two runs.  The I/O floor is the same run with the fog stage skipped

@@ -115,7 +115,7 @@ if command -v bash >/dev/null 2>&1; then
   complete_bash - | grep -- "^-[A-Za-z]$" | sort > "$T/bash-short.txt"
   check "bash completion offers the short options" diff -u "$T/short.txt" "$T/bash-short.txt"
   complete_bash --shadows "" | tr '\n' ' ' > "$T/bash-enum.txt"
-  check "bash completion: --shadows offers its four choices" grep -qx "auto none map screen " "$T/bash-enum.txt"
+  check "bash completion: --shadows offers its five choices" grep -qx "auto none map screen map+screen " "$T/bash-enum.txt"
   complete_bash --preset m > "$T/bash-preset.txt"
   check "bash completion: --preset m offers morning-valley-mist (installed, found beside fogpipe in PATH)" \
     grep -qx morning-valley-mist "$T/bash-preset.txt"

@@ -1,5 +1,6 @@
 /* Every combination of the building blocks a user composes agrees with the
- * exact path: --shadows none / screen / map x a fogmap or not x local
+ * exact path: --shadows none / screen / map (and map+screen: plain, and
+ * with the fogmap and the lamps) x a fogmap or not x local
  * lamps or not x --fog-resolution 1, 1/2, 1/4 x --blur off / bilateral x
  * OpenCL / the C reference (--cpu), on one small frame of the sample scene
  * (128x72) with a sun, through the pipeline's own frame path (the
@@ -167,7 +168,7 @@ static int render(const group_t *g, int cpu, int res, int blur, float *out)
                              "scatter-steps", "16", "shadows", g->shadows,
                              "fog-resolution", resv };
     int n = 16;
-    if (strcmp(g->shadows, "map") == 0) {
+    if (strncmp(g->shadows, "map", 3) == 0) {
         opts[n++] = "shadow-map";
         opts[n++] = smap;
     }
@@ -309,6 +310,8 @@ GROUP(test_map, "map", 0, 0)
 GROUP(test_map_lamps, "map", 0, 1)
 GROUP(test_map_fogmap, "map", 1, 0)
 GROUP(test_map_fogmap_lamps, "map", 1, 1)
+GROUP(test_map_screen, "map+screen", 0, 0)
+GROUP(test_map_screen_fogmap_lamps, "map+screen", 1, 1)
 
 int main(void)
 {
@@ -319,6 +322,7 @@ int main(void)
         cmocka_unit_test(test_screen_fogmap), cmocka_unit_test(test_screen_fogmap_lamps),
         cmocka_unit_test(test_map),           cmocka_unit_test(test_map_lamps),
         cmocka_unit_test(test_map_fogmap),    cmocka_unit_test(test_map_fogmap_lamps),
+        cmocka_unit_test(test_map_screen),    cmocka_unit_test(test_map_screen_fogmap_lamps),
     };
     return cmocka_run_group_tests(tests, world_setup, world_teardown);
 }
