@@ -1,37 +1,60 @@
 # tests/blender_light.sh: Cycles renders lit fog (single scattering) for
 # fogpipe to match.
 #   blender -b --factory-startup -noaudio -P fogpipe_camera.py -P tests/blender/light_truth.py \
-#     -P tests/blender/light_scene.py -- OUTDIR SAMPLES PROFILE [MAPSIZE]
+#     -P tests/blender/light_scene.py -- OUTDIR SAMPLES PROFILE [map=768] [clip=1e-4] \
+#     [lights=sun,point,spot] [last=3]
 # The scene (Z up, meters): a ground (z = 0), a wall 4 m high along x at
 # y = 5 with four vertical slits 0.5 m wide, three thin pillars (0.25 and
-# 0.35 m square, 3.5 m high) between the wall and the camera, a low sun
-# behind the wall (16 degrees up, shining at the camera through the slits),
-# a point light and a spot light in front of the wall, and a camera that
-# moves and turns over frames 1-3 (128 x 72 px).  The fog is a box of
-# volume, x and y in [-9, 9], z in [-0.05, 5]: extinction SIGMA (per meter),
-# albedo ALBEDO (Volume Scatter of density ALBEDO SIGMA, white, anisotropy
-# G, plus Volume Absorption of density (1 - ALBEDO) SIGMA, black), and with
-# PROFILE "height" the density times fogpipe's --height Y0,H profile
-# (1 below Y0, exp(-(z - Y0)/H) above it), driven by the shading point's z.
-# Every surface is purely emissive (known colors: the plate is exact and
-# noiseless) and does not light the fog (no sample-as-light, volume
-# bounces 0); the world is black.  Cycles renders, with the add-on:
-#   OUTDIR/plate.####.exr   frames 1-3, the box hidden: colors and depth
-#                           (MultiLayer, Z pass), the camera in the Note;
-#   OUTDIR/fogA.####.exr    the fog, SAMPLES samples, seed 1 (RGBA);
+# 0.35 m square, 3.5 m high) in the slits' shafts, a low sun behind the
+# wall (16 degrees up, shining at the camera through the slits: hard,
+# angle 0), a point light between the camera and the pillars, a spot
+# (20 degrees, blend 0.15) lighting the ground beside them, and a camera
+# that moves, turns and zooms over frames 1-3 (128 x 72 px, clip start
+# CLIP).  The fog is a box of volume, x and y in [-9, 9], z in [-0.05, 5]:
+# extinction SIGMA (per meter), albedo ALBEDO (Volume Scatter of density
+# ALBEDO SIGMA, white, anisotropy G, plus Volume Absorption of density
+# (1 - ALBEDO) SIGMA, black), with PROFILE "height" times fogpipe's
+# --height Y0,H profile (1 below Y0, exp(-(z - Y0)/H) above it) of the
+# shading point's z ("homog": homogeneous).  Every surface is purely
+# emissive (known colors: the plate is exact and noiseless); the world is
+# black.  Cycles renders, with the add-on (-P fogpipe_camera.py: the
+# camera in every frame's Note):
+#   OUTDIR/plate.####.exr   frames 1-3, no fog, 1 sample: the plate
+#                           (MultiLayer, Z pass);
+#   OUTDIR/trans.####.exr   the plate through the fog: absorption SIGMA
+#                           alone, no lights, 1 sample (exact, as
+#                           tests/blender/absorb.py);
+#   OUTDIR/fogA.####.exr    the fog's in-scattered light: the surfaces
+#                           black (still casting shadows), SAMPLES
+#                           samples, seed 1;
 #   OUTDIR/fogB.####.exr    the same with seed 2: the two give the noise;
 #   OUTDIR/sunmap.0001.exr  the sun's depth map: an orthographic camera
 #                           along the sun over the whole box, MAPSIZE
-#                           texels square (default 768), single-layer with
-#                           Z, its camera in the Note;
+#                           texels square, single-layer with Z, its
+#                           camera in the Note;
 #   OUTDIR/scene.txt        the medium: "sigma S albedo A g G height Y0 H
 #                           box X0 Y0 Z0 X1 Y1 Z1" (fogpipe's options).
+# Cycles' own fog of the plate is trans + fogA (or fogB): light adds up.
 # tests/blender/light_truth.py, loaded before, writes the lights and the
 # known points of every frame as Blender has them.
-# The pixel filter is 0.01 px wide (every sample through the pixel's center, as the
-# depth pass and fogpipe's ray).  The point and the spot cast no shadows
-# (Cast Shadow off): fogpipe's local lights are not shadowed by the
-# geometry; the sun's shadows come from the map.
+# The pixel filter is 0.01 px wide: every sample goes through the pixel's
+# center, as the depth pass and fogpipe's ray.  What it takes for Cycles
+# to render fogpipe's model (each measured):
+#   - transparent bounces: shadow rays cross the box's faces as
+#     transparent bounces; with none allowed the box blocks the sun;
+#   - the box's floor below the ground's plane: coincident faces hide the
+#     ground from some rays (black pixels of the plate through the fog);
+#   - the surfaces black while the fog is lit: emitting, they light the
+#     fog (a quarter of its light here), even with volume bounces 0, no
+#     sample-as-light and no volume-scatter visibility; emitting toward
+#     camera rays only (Light Path) leaves the plate through the fog 20%
+#     short;
+#   - the local lights cast shadows: with Cast Shadow off Cycles also
+#     skips the fog between the light and the point (31% more light from
+#     the point than fogpipe's); fogpipe's local lights have no shadows of
+#     the geometry, so the point stands where what the pillars shadow
+#     from it is mostly hidden from the camera, and no geometry is in the
+#     spot's cone.
 import math
 import os
 import sys
@@ -41,10 +64,13 @@ from mathutils import Matrix, Vector
 
 argv = sys.argv[sys.argv.index("--") + 1:]
 outdir, samples, profile = argv[0], int(argv[1]), argv[2]
-mapsize = int(argv[3]) if len(argv) > 3 else 768
-# Exploring: only these lights (comma-separated names), and the last frame.
-only = argv[4].split(",") if len(argv) > 4 else None
-last_frame = int(argv[5]) if len(argv) > 5 else 3
+opt = dict(a.split("=", 1) for a in argv[3:])
+mapsize = int(opt.get("map", 768))
+# Exploring: only these lights (comma-separated names), the last frame.
+only = opt["lights"].split(",") if "lights" in opt else None
+last_frame = int(opt.get("last", 3))
+# The camera's clip start: Cycles' fog begins there.
+CLIP = float(opt.get("clip", 1e-4))
 os.makedirs(outdir, exist_ok=True)
 
 SIGMA, ALBEDO, G = 0.12, 0.9, 0.3
@@ -53,7 +79,6 @@ Y0, H = (0.5, 2.5) if profile == "height" else (0.0, math.inf)
 # plane hides it from some rays (black pixels).
 BOX = (-9.0, -9.0, -0.05, 9.0, 9.0, 5.0)
 WIDTH, HEIGHT = 128, 72
-CLIP = 1e-4   # fog from the camera (fogpipe today; see tests/blender/absorb.py)
 
 for o in list(bpy.data.objects):
     bpy.data.objects.remove(o)
@@ -112,19 +137,17 @@ sun_data.angle = 0.0
 sun = bpy.data.objects.new("sun", sun_data)
 sun.rotation_euler = (-TOWARD_SUN).to_track_quat('-Z', 'Y').to_euler()
 point_data = bpy.data.lights.new("point", 'POINT')
-point_data.energy = 60.0
+point_data.energy = 40.0
 point_data.color = (1.0, 0.7, 0.4)
 point_data.shadow_soft_size = 0.0
-point_data.cycles.cast_shadow = False
 point = bpy.data.objects.new("point", point_data)
-point.location = (-1.2, 0.2, 1.3)
+point.location = (-1.5, -3.5, 1.0)
 spot_data = bpy.data.lights.new("spot", 'SPOT')
 spot_data.energy = 150.0
 spot_data.color = (0.5, 0.7, 1.0)
 spot_data.shadow_soft_size = 0.0
 spot_data.spot_size = math.radians(20.0)
 spot_data.spot_blend = 0.15
-spot_data.cycles.cast_shadow = False
 spot = bpy.data.objects.new("spot", spot_data)
 spot.location = (2.0, -0.5, 3.6)
 spot.rotation_euler = (Vector((2.4, 1.2, 0.0)) - spot.location).to_track_quat('-Z', 'Y').to_euler()
@@ -176,10 +199,12 @@ if profile == "height":
     nt.links.new(math_node('MULTIPLY', h, ALBEDO * SIGMA), scatter.inputs['Density'])
     nt.links.new(math_node('MULTIPLY', h, (1 - ALBEDO) * SIGMA), absorb.inputs['Density'])
     fm.cycles.homogeneous_volume = False
-    # Ray marching: steps of 0.1 x the box's mean size x the rate = 6.8 cm
-    # (the density changes by 2.7% per step at most; Cycles' estimate of
-    # each step's transmittance is then exact to 4e-6).
-    fm.cycles.volume_step_rate = 0.05
+    # Ray marching: steps of 0.1 x the box's mean size x the rate = 41 cm
+    # (rate 0.05, 6.8 cm steps, renders 6 times slower for the same
+    # figures): each step's optical depth is at most 0.05, and the
+    # density changes by 15% across it, so Cycles' estimate of a step's
+    # transmittance from one point in it is off by 1e-5 on average.
+    fm.cycles.volume_step_rate = 0.3
 else:
     scatter.inputs['Density'].default_value = ALBEDO * SIGMA
     absorb.inputs['Density'].default_value = (1 - ALBEDO) * SIGMA
