@@ -96,7 +96,10 @@ sun_map() {
   sm_note=$("$OIIOTOOL" --info -v "$1/sunmap.0001.exr" | sed -n 's/^ *Note: "\(.*\)"$/\1/p')
   sm_w2c=$(echo "$sm_note" | sed -n 's/.*fogpipe-camera 1 worldToCamera \(.*\) worldToNDC.*/\1/p' | tr ' ' ',')
   sm_w2n=$(echo "$sm_note" | sed -n 's/.*fogpipe-camera 1 .* worldToNDC \([^|]*\).*/\1/p' | sed 's/ *$//' | tr ' ' ',')
-  [ -n "$sm_w2c" ] && [ -n "$sm_w2n" ] || { echo "no fogpipe-camera text in the map's Note"; return 1; }
+  if [ -z "$sm_w2c" ] || [ -z "$sm_w2n" ]; then
+    echo "$1/sunmap.0001.exr: no fogpipe-camera text in its Note"
+    return 1
+  fi
   "$OIIOTOOL" "$1/sunmap.0001.exr" --attrib:type=matrix worldToCamera "$sm_w2c" \
     --attrib:type=matrix worldToNDC "$sm_w2n" -o "$1/sunmap-m.exr"
 }
@@ -121,7 +124,7 @@ map_texels() {
 
 for prof in homog height; do
   D="$T/$prof"
-  eval "SAMPLES=\$SAMPLES_$prof"
+  case $prof in homog) SAMPLES=$SAMPLES_homog ;; *) SAMPLES=$SAMPLES_height ;; esac
   check "$prof: Cycles renders the plate, its fog (single scattering, 2 seeds x $SAMPLES samples) and the sun's map" \
     sh -c '"$1" -b --factory-startup -noaudio -P "$2" -P "$3/light_truth.py" -P "$3/light_scene.py" \
     -- "$4" "$5" "$6" > "$4.log" 2>&1 && test -f "$4/fogB.0003.exr" && test -f "$4/sunmap.0001.exr" &&
@@ -147,7 +150,7 @@ done
 D="$T/homog"
 SIGMA2=$(awk '{ print 2 * $2 }' "$D/scene.txt" 2>/dev/null)
 for wrong in "--density $SIGMA2" "--sun-intensity 5"; do
-  name=wrong$(echo "$wrong" | tr -dc 'a-z')
+  name=wrong$(echo "$wrong" | tr -dc '[:lower:]')
   # shellcheck disable=SC2086 # $wrong: an option and its value
   if fog_frame "$D" 1 "$name" $wrong > "$T/out.txt" 2>&1; then
     not_ok "homog: frame 1: the comparison catches a wrong fog ($wrong)"
