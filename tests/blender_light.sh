@@ -21,12 +21,13 @@
 #     prints both, the in-scatter's own bias and the worst blocks); the
 #     point light's brightest fog is on Blender's pixel for it;
 #   - the comparison fails with twice the density, and with the sun 25% too
-#     strong.
+#     strong (or, with the lights from the frame, with --lights none).
 # FP_LIGHT_FLAGS says where fogpipe's lights come from: "truth" (default:
 # the options light_truth.py computed from Blender's lights, --up z, and
 # the sun's map with worldToCamera/worldToNDC copied from its Note into
-# typed header attributes) or "none" (no light, shadow or up option:
-# what the frames carry).  Skips when blender is not installed.
+# typed header attributes; the camera's clip start 1e-4 m) or "none" (no
+# light, shadow or up option: what the frames carry, the clip start
+# Blender's default 0.1 m).  Skips when blender is not installed.
 . "${FP_SRCDIR:-.}/tests/lib.sh"
 BLENDER=${BLENDER:-blender}
 if ! command -v "$BLENDER" >/dev/null 2>&1; then
@@ -42,6 +43,10 @@ SAMPLES_homog=${FP_LIGHT_SAMPLES:-128}
 SAMPLES_height=${FP_LIGHT_SAMPLES:-64}
 MAXBIAS=0.01
 MAXRMS=2.5
+# The camera's clip start, where Cycles' fog begins: at the camera while
+# fogpipe's fog begins there (truth); Blender's default 0.1 m when fogpipe
+# takes the clip start from the frame (none).
+case $FP_LIGHT_FLAGS in truth) CLIP=1e-4 ;; *) CLIP=0.1 ;; esac
 
 # light_flags DIR FRAME: fogpipe's options for the lights, shadows and up
 # axis of DIR's frame, the one place that says where they come from.
@@ -127,10 +132,10 @@ for prof in homog height; do
   case $prof in homog) SAMPLES=$SAMPLES_homog ;; *) SAMPLES=$SAMPLES_height ;; esac
   check "$prof: Cycles renders the plate, its fog (single scattering, 2 seeds x $SAMPLES samples) and the sun's map" \
     sh -c '"$1" -b --factory-startup -noaudio -P "$2" -P "$3/light_truth.py" -P "$3/light_scene.py" \
-    -- "$4" "$5" "$6" > "$4.log" 2>&1 && test -f "$4/fogB.0003.exr" && test -f "$4/sunmap.0001.exr" &&
+    -- "$4" "$5" "$6" clip="$7" > "$4.log" 2>&1 && test -f "$4/fogB.0003.exr" && test -f "$4/sunmap.0001.exr" &&
     test -f "$4/truth.0003.txt" && test -s "$4/sunmap.txt" ||
     { grep -i -E "error|traceback" "$4.log" | head -n 20; exit 1; }' \
-    sh "$BLENDER" "$ADDON" "$TB" "$D" "$SAMPLES" "$prof"
+    sh "$BLENDER" "$ADDON" "$TB" "$D" "$SAMPLES" "$prof" "$CLIP"
   grep -E "^ Time: " "$D.log" 2>/dev/null | awk '{ split($2, t, ":"); s += 60 * t[1] + t[2] }
     END { printf "Cycles render time (wall): %.1f s\n", s }' > "$T/time.txt"
   diag "$T/time.txt"
@@ -146,10 +151,13 @@ for prof in homog height; do
   done
 done
 
-# The comparison can fail: twice the density; the sun 25% too strong.
+# The comparison can fail: twice the density; the sun 25% too strong (with
+# the lights from the frame: the frame's lights left out).
 D="$T/homog"
 SIGMA2=$(awk '{ print 2 * $2 }' "$D/scene.txt" 2>/dev/null)
-for wrong in "--density $SIGMA2" "--sun-intensity 5"; do
+WRONG_LIGHT="--sun-intensity 5"
+[ "$FP_LIGHT_FLAGS" = truth ] || WRONG_LIGHT="--lights none"
+for wrong in "--density $SIGMA2" "$WRONG_LIGHT"; do
   name=wrong$(echo "$wrong" | tr -dc '[:lower:]')
   # shellcheck disable=SC2086 # $wrong: an option and its value
   if fog_frame "$D" 1 "$name" $wrong > "$T/out.txt" 2>&1; then
