@@ -4,6 +4,7 @@
 #include "clrt.h"
 #include "color.h"
 #include "composite.h"
+#include "deep_frame.h"
 #include "preview.h"
 #include "exrio.h"
 #include "fogmap.h"
@@ -128,6 +129,8 @@ typedef struct run_t {
     size_t pool_px[3];
     fp_color_t color;                /* OpenColorIO spaces and processors (thread-safe) */
     fp_preview_t preview;            /* previews written, for the contact sheet (locked) */
+    fp_deep_data_t deep;             /* --deep (filters/deep.h) */
+    fp_deep_stats_t deep_stats;      /* samples written (calling thread) */
 } run_t;
 
 /* One frame between the stages: read_frame (reader thread), process_frame
@@ -142,6 +145,7 @@ typedef struct frame_state_t {
                                     this frame, which lives until it is written) */
     fp_color_frame_t color;      /* this frame's color spaces (filters/color.h) */
     fp_aov_frame_t aov;          /* fog layers written with it (filters/aov.h) */
+    fp_deep_image_t *din, *dout; /* --deep: a deep input; the deep output */
 } frame_state_t;
 
 /* A fog layer of n pixels: one handed back by an earlier frame if any. */
@@ -195,8 +199,16 @@ static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
     job->data = fs;
     fs->wopts = r->wopts;
     double t0 = fp_now_ms(), t_depth_read = 0;
-    int rc = fp_exr_read_memory(buf, size, in_name, frame, &r->sel, &fs->f);
-    if (rc == FP_OK && p->io.depth) {
+    int deep_in = fp_exr_is_deep(buf, size);
+    if (deep_in && (!r->deep.on || p->io.depth)) {
+        free(buf);
+        return fp_error("%s: frame %ld: a deep image (%s)", in_name, frame,
+                        p->io.depth ? "it carries its own Z: no --depth"
+                                    : "use --deep to fog it into deep output");
+    }
+    int rc = deep_in ? fp_deep_read_memory(buf, size, in_name, frame, &fs->din)
+                     : fp_exr_read_memory(buf, size, in_name, frame, &r->sel, &fs->f);
+    if (rc == FP_OK && p->io.depth && !deep_in) {
         char dpath[4096];
         fp_exr_select_t dsel = r->sel;
         dsel.need_color = 0;
@@ -390,6 +402,40 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
     return FP_OK;
 }
 
+/* --deep: the frame's fog as deep samples (filters/deep_frame.h), on the
+ * host in double precision whatever the device. */
+static int deep_process(run_t *r, frame_state_t *fs, const fp_camera_t *cam,
+                        const fp_frame_info_t *info, fp_loop_job_t *job)
+{
+    fp_params_t *p = r->p;
+    fp_view_t view;
+    float *front = fs->din ? fp_deep_front_depth(fs->din, p->camera.depth_kind) : NULL;
+    const float *depth = fs->din ? front : fp_frame_depth(fs->f);
+    double t0 = fp_now_ms();
+    int rc = depth ? FP_OK : fp_error("%s: frame %ld: out of memory", job->in, job->frame);
+    if (rc == FP_OK && (rc = fp_view_setup(cam, p, info, &view)) == FP_OK &&
+        (rc = fp_fogmap_frame(p, r->cl, &r->fogmap, job->frame, &view, &r->fog)) == FP_OK &&
+        (!r->light.active ||
+         (rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, job->frame)) == FP_OK) &&
+        (rc = fp_color_frame(&r->color, info, job->in, job->frame, &fs->color)) == FP_OK) {
+        fp_deep_fog_t df = { &r->deep, &r->fog, &r->light, &view, depth };
+        fp_deep_stats_t before = r->deep_stats;
+        rc = fp_deep_frame(&df, &fs->color, fs->f, fs->f ? fp_frame_rgba(fs->f) : NULL, depth,
+                           fs->din, job->in, job->frame, &fs->dout, &r->deep_stats);
+        if (rc == FP_OK)
+            fp_info("%s: frame %ld: deep: %.2f samples a pixel (%.2f of fog), %ld pixels at "
+                    "--deep-max-samples", job->in, job->frame,
+                    (double)(r->deep_stats.samples - before.samples) / (info->width * (double)info->height),
+                    (double)(r->deep_stats.fog_samples - before.fog_samples) /
+                        (info->width * (double)info->height),
+                    r->deep_stats.capped - before.capped);
+    }
+    fp_color_write_opts(&fs->color, &fs->wopts);
+    job->ms[FP_T_FOG] = fp_now_ms() - t0;
+    free(front);
+    return rc;
+}
+
 /* Stage 2, calling thread (it owns the device): fog one decoded frame and
  * composite it in place. */
 static int process_frame(run_t *r, fp_loop_job_t *job)
@@ -400,7 +446,7 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     const char *in_name = job->in;
     long frame = job->frame;
     int rc;
-    const fp_frame_info_t *info = fp_frame_info(f);
+    const fp_frame_info_t *info = fs->din ? &fs->din->info : fp_frame_info(f);
     fp_camera_t cam;
     if ((rc = fp_camera_resolve(p, info, in_name, frame, &cam)))
         return rc;
@@ -408,6 +454,8 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
         fp_camera_print(stdout, &cam, info, in_name, frame);
         return FP_OK;
     }
+    if (r->deep.on)
+        return deep_process(r, fs, &cam, info, job);
     size_t n = (size_t)info->width * info->height;
     float *fog = fs->fog = fog_get(r, n);
     if (!fog)
@@ -442,16 +490,21 @@ static int write_frame(run_t *r, fp_loop_job_t *job)
     if (p->cmd.print_camera)
         return FP_OK;
     double t0 = fp_now_ms();
-    if (!r->preview.out_image &&
-        (rc = fp_exr_encode(f, fp_frame_rgba(f), &fs->wopts, out_name, frame, &bytes, &nbytes)))
+    if (fs->dout || fs->din)
+        rc = fs->dout ? fp_deep_encode(fs->dout, f, &fs->wopts, out_name, frame, &bytes, &nbytes)
+                      : fp_error("%s: frame %ld: no deep output made", out_name, frame);
+    else if (!r->preview.out_image)
+        rc = fp_exr_encode(f, fp_frame_rgba(f), &fs->wopts, out_name, frame, &bytes, &nbytes);
+    if (rc)
         goto done;
     double t1 = fp_now_ms();
     job->ms[FP_T_ENCODE] = t1 - t0;
     /* The preview before the frame: an output frame on disk means a whole
      * frame (--skip-existing). */
     fp_loop_commit_begin();
-    rc = fp_preview_frame(&r->preview, &fs->color, fp_frame_rgba(f), fp_frame_info(f)->width,
-                          fp_frame_info(f)->height, frame);
+    if (!fs->dout)
+        rc = fp_preview_frame(&r->preview, &fs->color, fp_frame_rgba(f), fp_frame_info(f)->width,
+                              fp_frame_info(f)->height, frame);
     fp_loop_commit_end(NULL);
     if (rc)
         goto done;
@@ -496,6 +549,8 @@ static void stage_release(void *ctx, fp_loop_job_t *job)
         fp_frame_free(fs->f);
     fog_put(r, fs->fog, fs->fog_px);
     fp_aov_free(&fs->aov);
+    fp_deep_free(fs->din);
+    fp_deep_free(fs->dout);
     free(fs);
     job->data = NULL;
 }
@@ -530,7 +585,7 @@ static int setup(run_t *r)
     w.dwa_level = fp_options_given(p, "dwa-level") ? (float) p->io.dwa_level : -1.0f;
     r->wopts = w;
     int rc = fp_integrate_commit(p, &r->fog);
-    if (rc || (rc = fp_scatter_commit(p, &r->light)))
+    if (rc || (rc = fp_scatter_commit(p, &r->light)) || (rc = fp_deep_commit(p, &r->deep)))
         return rc;
     r->reference = p->fogmap.integrator == FP_INTEGRATOR_REFERENCE;
     r->buffers = fp_buffers_active(p);
@@ -826,6 +881,12 @@ int fp_pipeline_run(fp_params_t *p)
     }
     if (rc == FP_OK && !p->cmd.print_camera)
         rc = fp_preview_finish(&r.preview);
+    if (r.deep_stats.pixels)
+        fp_info("deep: %.2f samples a pixel (%.2f of fog) over %ld pixels, %ld pixels at "
+                "--deep-max-samples, %.1f fog evaluations a pixel",
+                (double)r.deep_stats.samples / r.deep_stats.pixels,
+                (double)r.deep_stats.fog_samples / r.deep_stats.pixels, r.deep_stats.pixels,
+                r.deep_stats.capped, (double)r.deep_stats.evals / r.deep_stats.pixels);
     run_release(&r);
     fp_loop_signals_stop();
     return rc;
