@@ -272,6 +272,8 @@ double fp_deep_ray_scale(const fp_view_t *v, int x, int y)
 typedef struct pt_t {
     double t, T, S[3];
     int node, forced;
+    double err;     /* a node: its segment's error, when err_ok */
+    int err_ok;
 } pt_t;
 
 typedef struct ray_t {
@@ -498,35 +500,42 @@ int fp_deep_fog_pixel(const fp_deep_fog_t *f, int x, int y, double z_end, const 
 
     /* Bisection: the worst segment first, while it is off by more than the
      * bound and the pixel has samples left. */
-    size_t limit = (size_t)dd->max_samples + nforced + 1;
+    size_t limit = (size_t)dd->max_samples + nforced + 1, nodes = count_nodes(&r);
     for (;;) {
+        /* each segment's error is kept at its first node until it is split */
         double worst_e = 0;
-        size_t wi = 0, wk = 0;
+        size_t wi = r.n;
         for (size_t i = 0; i + 1 < r.n; i = next_node(&r, i)) {
             size_t j = next_node(&r, i), kk;
             if (j >= r.n)
                 break;
-            double e = span_error(&r, i, j, &kk);
-            if (e > worst_e && kk != i) {
-                worst_e = e;
+            if (!r.p[i].err_ok) {
+                r.p[i].err = span_error(&r, i, j, &kk);
+                r.p[i].err_ok = 1;
+            }
+            if (r.p[i].err > worst_e) {
+                worst_e = r.p[i].err;
                 wi = i;
-                wk = kk;
             }
         }
-        if (worst_e <= tol)
+        if (worst_e <= tol || wi >= r.n)
             break;
-        if (count_nodes(&r) >= limit) {
+        if (nodes >= limit) {
             st->capped++;
             break;
         }
-        /* the probe nearest the middle becomes a boundary, and each half
+        /* the point nearest the middle becomes a boundary, and each half
          * gets its own probes */
-        size_t j = next_node(&r, wi), mid = wk;
+        size_t j = next_node(&r, wi), mid = wi + 1;
         double tm = 0.5 * (r.p[wi].t + r.p[j].t);
         for (size_t kk = wi + 1; kk < j; kk++)
             if (fabs(r.p[kk].t - tm) < fabs(r.p[mid].t - tm))
                 mid = kk;
+        if (mid >= j)
+            break;
         r.p[mid].node = 1;
+        r.p[mid].err_ok = r.p[wi].err_ok = 0;
+        nodes++;
         double t_mid = r.p[mid].t;
         if (probe_segment(&r, wi))
             goto oom;

@@ -69,7 +69,8 @@ void fp_deep_free(fp_deep_image_t *d);
  * from `plate`'s main part when given, else from the deep file read; its
  * windows from d->info.  opts: compression (-1: the input's when deep
  * files allow it, else ZIPS; only none, rle and zips are allowed),
- * for R, G, B, A (Z and ZBack are always FLOAT), set_chromaticities.
+ * set_chromaticities; R G B A Z ZBack are written FLOAT (a flattened pixel
+ * sums every sample's rounding), other channels in their own type.
  * *out is malloc'd. */
 int fp_deep_encode(const fp_deep_image_t *d, const fp_frame_t *plate,
                    const fp_exr_write_opts_t *opts, const char *where_file, long frame,
