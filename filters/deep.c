@@ -14,6 +14,16 @@
 #include "../kernels/light_core.h"
 #include "../kernels/scatter_core.h"
 
+/* Probes per segment: at its quarters. */
+#ifndef FP_DEEP_PROBES
+#define FP_DEEP_PROBES 4
+#endif
+/* Segments first made per span between forced boundaries. */
+#define FP_DEEP_FIRST_DIVISION 8
+/* The largest alpha of a segment checked by probes at its quarters: in a
+ * more opaque one they would all lie where little light is left. */
+#define FP_DEEP_PROBE_ALPHA 0.75
+
 #define DP(f) offsetof(fp_params_t, deep.f)
 const fp_option_t fp_deep_options[] = {
     { "deep", 0, FP_OPT_FLAG, DP(deep), 0, 0, NULL, 0, 1, NULL, NULL,
@@ -385,6 +395,14 @@ static double span_error(const ray_t *r, size_t i, size_t j, size_t *worst)
     return e;
 }
 
+/* A segment whose alpha is above FP_DEEP_PROBE_ALPHA while the light in
+ * front of it is above a tenth of the bound. */
+static int too_opaque(const pt_t *a, const pt_t *b, double tol)
+{
+    return a->T > 0.1 * tol && b->T < (1 - FP_DEEP_PROBE_ALPHA) * a->T &&
+           b->t - a->t > 1e-9 * (b->t + 1);
+}
+
 static size_t next_node(const ray_t *r, size_t i)
 {
     size_t j = i + 1;
@@ -403,12 +421,12 @@ static int probe_segment(ray_t *r, size_t i)
     double t0 = r->p[i].t, t1 = r->p[j].t, len = t1 - t0;
     if (!(len > 1e-9 * (fabs(t1) + 1)))
         return FP_OK;
-    for (int q = 1; q <= 3; q++) {
-        double t = t0 + 0.25 * q * len;
+    for (int q = 1; q < FP_DEEP_PROBES; q++) {
+        double t = t0 + len * q / FP_DEEP_PROBES;
         int near = 0;
         /* the points of this segment, found again (inserts move them) */
         for (size_t k = 0; k < r->n; k++)
-            if (fabs(r->p[k].t - t) < 0.05 * len) {
+            if (fabs(r->p[k].t - t) < 0.2 * len / FP_DEEP_PROBES) {
                 near = 1;
                 break;
             }
@@ -494,6 +512,19 @@ int fp_deep_fog_pixel(const fp_deep_fog_t *f, int x, int y, double z_end, const 
     }
     double smax = fmax(1, fmax(end.S[0], fmax(end.S[1], end.S[2])));
     double tol = dd->bound * smax;
+    /* A first even division (features of the light, shafts, narrower than
+     * a segment's quarter would pass between the probes), then probes. */
+    {
+        size_t n0 = r.n;
+        for (size_t i = 0; i + 1 < n0; i++) {
+            double t0 = r.p[i].t, t1 = r.p[i + 1].t;
+            for (int q = 1; q < FP_DEEP_FIRST_DIVISION; q++)
+                if (ray_add(&r, t0 + (t1 - t0) * q / FP_DEEP_FIRST_DIVISION, 1) < 0)
+                    goto oom;
+            i += FP_DEEP_FIRST_DIVISION - 1;
+            n0 += FP_DEEP_FIRST_DIVISION - 1;
+        }
+    }
     for (size_t i = 0; i + 1 < r.n; i = next_node(&r, i))
         if (probe_segment(&r, i))
             goto oom;
@@ -511,6 +542,10 @@ int fp_deep_fog_pixel(const fp_deep_fog_t *f, int x, int y, double z_end, const 
                 break;
             if (!r.p[i].err_ok) {
                 r.p[i].err = span_error(&r, i, j, &kk);
+                /* too opaque: its probes would all lie where little
+                 * light is left (deep.h) */
+                if (too_opaque(&r.p[i], &r.p[j], tol))
+                    r.p[i].err = fmax(r.p[i].err, 2 * tol);
                 r.p[i].err_ok = 1;
             }
             if (r.p[i].err > worst_e) {
@@ -556,7 +591,8 @@ int fp_deep_fog_pixel(const fp_deep_fog_t *f, int x, int y, double z_end, const 
             if (r.p[j].forced)
                 break;
             size_t j2 = next_node(&r, j), kk;
-            if (j2 >= r.n || span_error(&r, i, j2, &kk) > tol)
+            if (j2 >= r.n || too_opaque(&r.p[i], &r.p[j2], tol) ||
+                span_error(&r, i, j2, &kk) > tol)
                 break;
             r.p[j].node = 0;
             j = j2;
@@ -564,21 +600,24 @@ int fp_deep_fog_pixel(const fp_deep_fog_t *f, int x, int y, double z_end, const 
         i = j;
     }
 
-    /* --deep-max-alpha: halve the samples that are too opaque. */
-    if (dd->max_alpha < 1) {
-        for (size_t i = 0; i + 1 < r.n;) {
-            size_t j = next_node(&r, i);
-            if (j >= r.n)
-                break;
-            double a = r.p[i].T > 0 ? 1 - r.p[j].T / r.p[i].T : 0;
-            if (a > dd->max_alpha && r.p[j].t - r.p[i].t > 1e-9 * (r.p[j].t + 1) &&
-                count_nodes(&r) < limit + 4096) {
-                if (ray_add(&r, 0.5 * (r.p[i].t + r.p[j].t), 1) < 0)
-                    goto oom;
-                continue;
-            }
-            i = j;
+    /* --deep-max-alpha, and 1 - 1e-3 at most: a float alpha nearer 1
+     * loses the transmittance that the split rule raises to the power f
+     * (1 - 3e-10 is 1.0f); halve the samples that are too opaque, unless
+     * what is behind them is below the bound anyway. */
+    double amax = fmin(dd->max_alpha, 1 - 1e-3);
+    for (size_t i = 0; i + 1 < r.n;) {
+        size_t j = next_node(&r, i);
+        if (j >= r.n)
+            break;
+        double a = r.p[i].T > 0 ? 1 - r.p[j].T / r.p[i].T : 0;
+        if (a > amax && r.p[i].T > 0.1 * tol && r.p[j].t - r.p[i].t > 1e-9 * (r.p[j].t + 1) &&
+            nodes < limit + 4096) {
+            if (ray_add(&r, 0.5 * (r.p[i].t + r.p[j].t), 1) < 0)
+                goto oom;
+            nodes++;
+            continue;
         }
+        i = j;
     }
 
     /* The samples. */

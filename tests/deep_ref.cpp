@@ -15,8 +15,11 @@
 //                                            sample of alpha 0.4 over
 //                                            [0.5 Z, 0.8 Z] and a point sample
 //                                            of alpha 0.3 at 0.3 Z
-//   deep_ref diff A.exr B.exr TOL            max |A - B| of R, G, B over the
-//                                            pixels; exit 1 above TOL
+//   deep_ref diff A.exr B.exr TOL [rel]      max |A - B| of R, G, B over the
+//                                            pixels (rel: over max(1, B's
+//                                            brightest channel), the range
+//                                            of the composite); exit 1
+//                                            above TOL
 //
 // Flattening: every volumetric sample is split at every other sample's
 // Z and ZBack (alpha 1-(1-a)^f, colour in proportion), coincident pieces
@@ -321,7 +324,7 @@ static int cmd_deepen(const char *in, const char *out, bool glass)
     return 0;
 }
 
-static int cmd_diff(const char *a, const char *b, double tol)
+static int cmd_diff(const char *a, const char *b, double tol, bool rel)
 {
     float *img[2] = { nullptr, nullptr };
     std::vector<float> buf[2];
@@ -351,6 +354,14 @@ static int cmd_diff(const char *a, const char *b, double tol)
     size_t at = 0;
     for (size_t i = 0; i < buf[0].size(); i++) {
         double d = std::fabs((double)img[0][i] - img[1][i]);
+        if (rel) {
+            // the composite's range: the brightest channel of the pixel, at least 1
+            size_t p = i / 3 * 3;
+            double range = 1;
+            for (int c = 0; c < 3; c++)
+                range = std::max(range, std::fabs((double)img[1][p + c]));
+            d /= range;
+        }
         if (!(d <= worst)) {
             worst = d;
             at = i / 3;
@@ -376,8 +387,9 @@ int main(int argc, char **argv)
             return cmd_tidy(argv[2]);
         if (c == "deepen" && (argc == 4 || argc == 5))
             return cmd_deepen(argv[2], argv[3], argc == 5 && std::string(argv[4]) == "glass");
-        if (c == "diff" && argc == 5)
-            return cmd_diff(argv[2], argv[3], atof(argv[4]));
+        if (c == "diff" && (argc == 5 || argc == 6))
+            return cmd_diff(argv[2], argv[3], atof(argv[4]),
+                            argc == 6 && std::string(argv[5]) == "rel");
     } catch (const std::exception &e) {
         std::fprintf(stderr, "deep_ref: %s\n", e.what());
         return 2;
