@@ -34,7 +34,7 @@ const fp_option_t fp_deep_options[] = {
       "largest error of the fog that splitting the deep samples at any depth may give "
       "(|dS| + |dtau| per channel, times max(1, the pixel's fog brightness)); smaller: "
       "more samples", NULL, 0 },
-    { "deep-max-samples", 0, FP_OPT_INT, DP(max_samples), 0, 0, "64", 1, 4096, NULL, "N",
+    { "deep-max-samples", 0, FP_OPT_INT, DP(max_samples), 0, 0, "128", 1, 4096, NULL, "N",
       "at most N fog samples per pixel (a pixel that needs more keeps N and is counted in "
       "--stats and -v)", NULL, 0 },
     { "deep-max-alpha", 0, FP_OPT_REAL, DP(max_alpha), 0, 0, "1", 0.01, 1, NULL, "A",
@@ -49,7 +49,7 @@ int fp_deep_commit(const fp_params_t *p, fp_deep_data_t *d)
     memset(d, 0, sizeof *d);
     d->on = p->deep.deep;
     d->bound = p->deep.bound > 0 ? p->deep.bound : 1e-4;
-    d->max_samples = p->deep.max_samples > 0 ? p->deep.max_samples : 64;
+    d->max_samples = p->deep.max_samples > 0 ? p->deep.max_samples : 128;
     d->max_alpha = p->deep.max_alpha > 0 && p->deep.max_alpha <= 1 ? p->deep.max_alpha : 1;
     d->sky_keep = p->fog.sky == 1;
     if (!d->on)
@@ -60,6 +60,12 @@ int fp_deep_commit(const fp_params_t *p, fp_deep_data_t *d)
     if (p->buffers.blur != FP_BLUR_OFF || p->buffers.resolution > 1)
         return fp_usage_error("--deep: --blur and --fog-resolution filter the flat fog "
                               "layer; deep samples are computed per ray (leave them off)");
+    const char *cz = p->io.compression;
+    if (cz && strcmp(cz, "input") != 0 && strcmp(cz, "none") != 0 && strcmp(cz, "rle") != 0 &&
+        strcmp(cz, "zips") != 0)
+        return fp_usage_error("--deep: --compression %s cannot hold deep data (expected "
+                              "input, none, rle or zips, the codecs OpenEXR allows for deep "
+                              "files)", cz);
     const char *o = p->io.output, *ext = o ? strrchr(o, '.') : NULL;
     if (p->preview.preview || p->preview.contact_sheet ||
         (ext && (strcasecmp(ext, ".png") == 0 || strcasecmp(ext, ".tif") == 0 ||
@@ -511,7 +517,10 @@ int fp_deep_fog_pixel(const fp_deep_fog_t *f, int x, int y, double z_end, const 
         }
     }
     double smax = fmax(1, fmax(end.S[0], fmax(end.S[1], end.S[2])));
-    double tol = dd->bound * smax;
+    /* with light, probes check half the bound: between them the fog may
+     * differ from the split rule by a little more than at them (the
+     * light's quadrature places its steps by the ray's end) */
+    double tol = (r.lit ? 0.5 : 1.0) * dd->bound * smax;
     /* A first even division (features of the light, shafts, narrower than
      * a segment's quarter would pass between the probes), then probes. */
     {

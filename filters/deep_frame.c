@@ -59,11 +59,12 @@ static int input_pixel(job_t *j, size_t i, int x, int y, fp_dlist_t *l)
         s.zb = role_value(d, FP_DCH_ZBACK, k, (float)s.z);
         if (!(s.zb >= s.z))
             s.zb = s.z;
-        if (!(s.z >= 0) || !isfinite(s.z) || !isfinite(s.zb)) {
+        /* a point at infinity is the sky (oiiotool --deepen writes one) */
+        if (!(s.z >= 0) || (isinf(s.zb) && !isinf(s.z))) {
             fp_error("%s: frame %ld: deep sample at pixel %d,%d has depth %g..%g (expected "
-                     "finite Z >= 0)", j->where, j->frame, x + d->info.data_x0,
-                     y + d->info.data_y0, s.z, s.zb);
-            return FP_EUSAGE;
+                     "Z >= 0, ZBack finite unless Z is infinite)", j->where, j->frame,
+                     x + d->info.data_x0, y + d->info.data_y0, s.z, s.zb);
+            return FP_ERR;
         }
         float rgba[4] = { role_value(d, FP_DCH_R, k, 0), role_value(d, FP_DCH_G, k, 0),
                           role_value(d, FP_DCH_B, k, 0), role_value(d, FP_DCH_A, k, 1) };

@@ -426,7 +426,8 @@ int fp_deep_read_memory(void *buf, size_t size, const char *where_file, long fra
     }
     fp_frame_info_t info;
     memset(&info, 0, sizeof info);
-    info.compression = comp;
+    info.width = (int)w;
+    info.height = (int)h;
     int rca = fp_deep_alloc(&info, chans, cl->num_channels, &d);
     free(chans);
     if (rca)

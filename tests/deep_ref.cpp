@@ -6,20 +6,24 @@
 //   deep_ref merge IN.exr Z R G B OUT.exr    an opaque sample (R G B, alpha 1)
 //                                            at deep depth Z merged into every
 //                                            pixel, then flattened
+//   deep_ref union A.exr B.exr OUT.exr       the samples of both (same size)
+//                                            merged and flattened
 //   deep_ref tidy IN.exr                     exit 1 unless every pixel is
 //                                            sorted and non-overlapping; prints
 //                                            samples per pixel
 //   deep_ref deepen FLAT.exr OUT.exr [glass] a deep render from a flat one: per
-//                                            pixel an opaque sample at its Z;
+//                                            pixel a sample at its Z (the
+//                                            sky at infinity);
 //                                            with "glass", also a volumetric
 //                                            sample of alpha 0.4 over
 //                                            [0.5 Z, 0.8 Z] and a point sample
 //                                            of alpha 0.3 at 0.3 Z
-//   deep_ref diff A.exr B.exr TOL [rel]      max |A - B| of R, G, B over the
-//                                            pixels (rel: over max(1, B's
-//                                            brightest channel), the range
-//                                            of the composite); exit 1
-//                                            above TOL
+//   deep_ref diff A.exr B.exr TOL [rel [R.exr]]
+//                                            max |A - B| of R, G, B over the
+//                                            pixels (rel: over max(1, the
+//                                            brightest channel of B, or of
+//                                            R: the range of the composite));
+//                                            exit 1 above TOL
 //
 // Flattening: every volumetric sample is split at every other sample's
 // Z and ZBack (alpha 1-(1-a)^f, colour in proportion), coincident pieces
@@ -237,6 +241,26 @@ static int cmd_flatten(const char *in, const char *out, const Sample *extra)
     return 0;
 }
 
+static int cmd_union(const char *a, const char *b, const char *out)
+{
+    Deep d = read_deep(a), e = read_deep(b);
+    if (d.px.size() != e.px.size()) {
+        std::fprintf(stderr, "deep_ref: %s and %s differ in size\n", a, b);
+        return 2;
+    }
+    std::vector<float> rgba((size_t)d.w * d.h * 4);
+    for (size_t i = 0; i < d.px.size(); i++) {
+        std::vector<Sample> px = d.px[i];
+        px.insert(px.end(), e.px[i].begin(), e.px[i].end());
+        double o[4];
+        flatten(px, o);
+        for (int c = 0; c < 4; c++)
+            rgba[4 * i + c] = (float)o[c];
+    }
+    write_flat(out, d, rgba);
+    return 0;
+}
+
 static int cmd_tidy(const char *in)
 {
     Deep d = read_deep(in);
@@ -281,7 +305,7 @@ static int cmd_deepen(const char *in, const char *out, bool glass)
     hd.channels() = ChannelList();
     const char *dn[6] = { "R", "G", "B", "A", "Z", "ZBack" };
     for (int c = 0; c < 6; c++)
-        hd.channels().insert(dn[c], Channel(c < 4 ? HALF : FLOAT));
+        hd.channels().insert(dn[c], Channel(FLOAT));
     hd.setType(DEEPSCANLINE);
     hd.compression() = ZIPS_COMPRESSION;
     std::vector<unsigned int> counts(n);
@@ -291,8 +315,11 @@ static int cmd_deepen(const char *in, const char *out, bool glass)
     for (size_t i = 0; i < n; i++) {
         const float *p = &px[5 * i];
         float z = p[4];
-        if (!(z > 0) || !std::isfinite(z) || z >= 1e9f)
+        if (!(z > 0) || !std::isfinite(z) || z >= 1e9f) {
+            // the sky: a point at infinity, as oiiotool --deepen writes it
+            all[i].push_back({ INFINITY, INFINITY, p[3], { p[0], p[1], p[2] } });
             continue;
+        }
         if (glass) {
             all[i].push_back({ 0.3 * z, 0.3 * z, 0.3, { 0.05, 0.02, 0.1 } });
             all[i].push_back({ 0.5 * z, 0.8 * z, 0.4, { 0.1, 0.15, 0.05 } });
@@ -324,13 +351,15 @@ static int cmd_deepen(const char *in, const char *out, bool glass)
     return 0;
 }
 
-static int cmd_diff(const char *a, const char *b, double tol, bool rel)
+static int cmd_diff(const char *a, const char *b, double tol, bool rel, const char *range_path)
 {
-    float *img[2] = { nullptr, nullptr };
-    std::vector<float> buf[2];
+    float *img[3] = { nullptr, nullptr, nullptr };
+    std::vector<float> buf[3];
     int w = 0, h = 0;
-    const char *paths[2] = { a, b };
-    for (int k = 0; k < 2; k++) {
+    const char *paths[3] = { a, b, range_path };
+    for (int k = 0; k < 3; k++) {
+        if (!paths[k])
+            continue;
         InputFile f(paths[k]);
         Imath::Box2i dw = f.header().dataWindow();
         w = dw.max.x - dw.min.x + 1;
@@ -358,8 +387,9 @@ static int cmd_diff(const char *a, const char *b, double tol, bool rel)
             // the composite's range: the brightest channel of the pixel, at least 1
             size_t p = i / 3 * 3;
             double range = 1;
+            const float *r = img[2] ? img[2] : img[1];
             for (int c = 0; c < 3; c++)
-                range = std::max(range, std::fabs((double)img[1][p + c]));
+                range = std::max(range, std::fabs((double)r[p + c]));
             d /= range;
         }
         if (!(d <= worst)) {
@@ -383,13 +413,15 @@ int main(int argc, char **argv)
                                                               atof(argv[6]) } };
             return cmd_flatten(argv[2], argv[7], &s);
         }
+        if (c == "union" && argc == 5)
+            return cmd_union(argv[2], argv[3], argv[4]);
         if (c == "tidy" && argc == 3)
             return cmd_tidy(argv[2]);
         if (c == "deepen" && (argc == 4 || argc == 5))
             return cmd_deepen(argv[2], argv[3], argc == 5 && std::string(argv[4]) == "glass");
-        if (c == "diff" && (argc == 5 || argc == 6))
+        if (c == "diff" && argc >= 5 && argc <= 7)
             return cmd_diff(argv[2], argv[3], atof(argv[4]),
-                            argc == 6 && std::string(argv[5]) == "rel");
+                            argc >= 6 && std::string(argv[5]) == "rel", argc == 7 ? argv[6] : nullptr);
     } catch (const std::exception &e) {
         std::fprintf(stderr, "deep_ref: %s\n", e.what());
         return 2;
