@@ -263,11 +263,12 @@ static int out_channels(const fp_deep_image_t *din, const fp_deep_pass_t *pass, 
     return FP_OK;
 }
 
-int fp_deep_frame(const fp_deep_fog_t *f, const fp_color_frame_t *color, const fp_frame_t *plate,
-                  const float *rgba, const float *depth, const fp_deep_image_t *din,
-                  const char *where, long frame, fp_deep_image_t **out, fp_deep_stats_t *st)
+int fp_deep_frame(const fp_deep_fog_t *f, const fp_color_frame_t *color,
+                  const fp_frame_info_t *info, const fp_frame_t *plate, const float *rgba,
+                  const fp_deep_image_t *din, const char *where, long frame,
+                  fp_deep_image_t **out, fp_deep_stats_t *st)
 {
-    const fp_frame_info_t *info = din ? &din->info : fp_frame_info(plate);
+    const float *depth = f->depth;
     int w = info->width, h = info->height, rc = FP_OK, nch = 0, npass = 0;
     size_t n = (size_t)w * h;
     fp_deep_chan_t *chans = NULL;
@@ -278,7 +279,7 @@ int fp_deep_frame(const fp_deep_fog_t *f, const fp_color_frame_t *color, const f
     job_t j;
     memset(&j, 0, sizeof j);
     *out = NULL;
-    if (!din && (rc = fp_deep_plate_pass(plate, &pass, &npass)))
+    if (!din && plate && (rc = fp_deep_plate_pass(plate, &pass, &npass)))
         goto oom;
     if ((rc = out_channels(din, pass, npass, 0, &chans, &nch)))
         goto oom;
@@ -361,6 +362,9 @@ int fp_deep_frame(const fp_deep_fog_t *f, const fp_color_frame_t *color, const f
             }
         }
     }
+    fp_info("%s: frame %ld: deep: %.2f samples a pixel (%.2f of fog), %ld pixels at "
+            "--deep-max-samples", where, frame, (double)j.st.samples / (double)(n ? n : 1),
+            (double)j.st.fog_samples / (double)(n ? n : 1), j.st.capped);
     st->pixels += (long)n;
     st->samples += j.st.samples;
     st->fog_samples += j.st.fog_samples;

@@ -402,36 +402,28 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
     return FP_OK;
 }
 
-/* --deep: the frame's fog as deep samples (filters/deep_frame.h), on the
- * host in double precision whatever the device. */
-static int deep_process(run_t *r, frame_state_t *fs, const fp_camera_t *cam,
-                        const fp_frame_info_t *info, fp_loop_job_t *job)
+/* --deep: a frame's fog as deep samples (filters/deep_frame.h) over a
+ * plate (rgba, depth) or a deep input (din), on the host in double
+ * precision whatever the device. */
+static int deep_image(run_t *r, const fp_deep_data_t *dd, const fp_camera_t *cam,
+                      const fp_frame_info_t *info, const fp_frame_t *plate, const float *rgba,
+                      const float *depth, const fp_deep_image_t *din, const char *name,
+                      long frame, fp_color_frame_t *color, fp_deep_image_t **out)
 {
     fp_params_t *p = r->p;
     fp_view_t view;
-    float *front = fs->din ? fp_deep_front_depth(fs->din, p->camera.depth_kind) : NULL;
-    const float *depth = fs->din ? front : fp_frame_depth(fs->f);
-    double t0 = fp_now_ms();
-    int rc = depth ? FP_OK : fp_error("%s: frame %ld: out of memory", job->in, job->frame);
+    float *front = din ? fp_deep_front_depth(din, p->camera.depth_kind) : NULL;
+    if (din)
+        depth = front;
+    int rc = depth ? FP_OK : fp_error("%s: frame %ld: out of memory", name, frame);
     if (rc == FP_OK && (rc = fp_view_setup(cam, p, info, &view)) == FP_OK &&
-        (rc = fp_fogmap_frame(p, r->cl, &r->fogmap, job->frame, &view, &r->fog)) == FP_OK &&
+        (rc = fp_fogmap_frame(p, r->cl, &r->fogmap, frame, &view, &r->fog)) == FP_OK &&
         (!r->light.active ||
-         (rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, job->frame)) == FP_OK) &&
-        (rc = fp_color_frame(&r->color, info, job->in, job->frame, &fs->color)) == FP_OK) {
-        fp_deep_fog_t df = { &r->deep, &r->fog, &r->light, &view, depth };
-        fp_deep_stats_t before = r->deep_stats;
-        rc = fp_deep_frame(&df, &fs->color, fs->f, fs->f ? fp_frame_rgba(fs->f) : NULL, depth,
-                           fs->din, job->in, job->frame, &fs->dout, &r->deep_stats);
-        if (rc == FP_OK)
-            fp_info("%s: frame %ld: deep: %.2f samples a pixel (%.2f of fog), %ld pixels at "
-                    "--deep-max-samples", job->in, job->frame,
-                    (double)(r->deep_stats.samples - before.samples) / (info->width * (double)info->height),
-                    (double)(r->deep_stats.fog_samples - before.fog_samples) /
-                        (info->width * (double)info->height),
-                    r->deep_stats.capped - before.capped);
+         (rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, frame)) == FP_OK) &&
+        (rc = fp_color_frame(&r->color, info, name, frame, color)) == FP_OK) {
+        fp_deep_fog_t df = { dd, &r->fog, &r->light, &view, depth };
+        rc = fp_deep_frame(&df, color, info, plate, rgba, din, name, frame, out, &r->deep_stats);
     }
-    fp_color_write_opts(&fs->color, &fs->wopts);
-    job->ms[FP_T_FOG] = fp_now_ms() - t0;
     free(front);
     return rc;
 }
@@ -454,8 +446,15 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
         fp_camera_print(stdout, &cam, info, in_name, frame);
         return FP_OK;
     }
-    if (r->deep.on)
-        return deep_process(r, fs, &cam, info, job);
+    if (r->deep.on) {
+        double t0 = fp_now_ms();
+        rc = deep_image(r, &r->deep, &cam, info, f, f ? fp_frame_rgba(f) : NULL,
+                        f ? fp_frame_depth(f) : NULL, fs->din, in_name, frame, &fs->color,
+                        &fs->dout);
+        fp_color_write_opts(&fs->color, &fs->wopts);
+        job->ms[FP_T_FOG] = fp_now_ms() - t0;
+        return rc;
+    }
     size_t n = (size_t)info->width * info->height;
     float *fog = fs->fog = fog_get(r, n);
     if (!fog)
@@ -953,6 +952,21 @@ int fp_session_frame(fp_session_t *s, const fp_frame_info_t *info, float *rgba,
         }
     }
     free(fog);
+    return rc;
+}
+
+int fp_session_deep(fp_session_t *s, const fp_frame_info_t *info, const float *rgba,
+                    const float *depth, const char *name, long frame, fp_deep_image_t **out)
+{
+    run_t *r = &s->r;
+    fp_params_t q = *r->p;
+    q.deep.deep = 1;
+    fp_deep_data_t dd;
+    fp_camera_t cam;
+    fp_color_frame_t color;
+    int rc = fp_deep_commit(&q, &dd);
+    if (rc == FP_OK && (rc = fp_camera_resolve(r->p, info, name, frame, &cam)) == FP_OK)
+        rc = deep_image(r, &dd, &cam, info, NULL, rgba, depth, NULL, name, frame, &color, out);
     return rc;
 }
 
