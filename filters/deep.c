@@ -655,7 +655,7 @@ int fp_deep_fog_pixel(const fp_deep_fog_t *f, int x, int y, double z_end, const 
     }
     goto done;
 oom:
-    rc = fp_error("deep samples: out of memory");
+    rc = FP_ERR;   /* no message: this runs on the frame's worker threads */
 done:
     st->evals += r.evals;
     free(r.p);

@@ -91,7 +91,8 @@ double fp_deep_ray_scale(const fp_view_t *v, int x, int y);
  * (INFINITY: to where the fog ends), with boundaries at the `nforced`
  * depths forced[] among them (a deep input's sample depths), appended to
  * *out.  st->evals counts the fog evaluations, st->capped the pixels that
- * reached --deep-max-samples before the bound. */
+ * reached --deep-max-samples before the bound.  FP_ERR: out of memory (no
+ * message: it runs on worker threads). */
 int fp_deep_fog_pixel(const fp_deep_fog_t *f, int x, int y, double z_end, const double *forced,
                       size_t nforced, fp_dlist_t *out, fp_deep_stats_t *st);
 

@@ -36,6 +36,7 @@ typedef struct job_t {
     pthread_mutex_t mu;
     fp_deep_stats_t st;
     int rc;
+    char msg[512];              /* the first worker's bad-input message ("": memory) */
     const char *where;
     long frame;
 } job_t;
@@ -61,10 +62,15 @@ static int input_pixel(job_t *j, size_t i, int x, int y, fp_dlist_t *l)
             s.zb = s.z;
         /* a point at infinity is the sky (oiiotool --deepen writes one) */
         if (!(s.z >= 0) || (isinf(s.zb) && !isinf(s.z))) {
-            fp_error("%s: frame %ld: deep sample at pixel %d,%d has depth %g..%g (expected "
-                     "Z >= 0, ZBack finite unless Z is infinite)", j->where, j->frame,
-                     x + d->info.data_x0, y + d->info.data_y0, s.z, s.zb);
-            return FP_ERR;
+            /* kept for the calling thread, which holds the frame's messages */
+            pthread_mutex_lock(&j->mu);
+            if (!j->msg[0])
+                snprintf(j->msg, sizeof j->msg, "%s: frame %ld: deep sample at pixel %d,%d has "
+                         "depth %g..%g (expected Z >= 0, ZBack finite unless Z is infinite)",
+                         j->where, j->frame, x + d->info.data_x0, y + d->info.data_y0, s.z,
+                         s.zb);
+            pthread_mutex_unlock(&j->mu);
+            return FP_EUSAGE;
         }
         float rgba[4] = { role_value(d, FP_DCH_R, k, 0), role_value(d, FP_DCH_G, k, 0),
                           role_value(d, FP_DCH_B, k, 0), role_value(d, FP_DCH_A, k, 1) };
@@ -327,10 +333,12 @@ int fp_deep_frame(const fp_deep_fog_t *f, const fp_color_frame_t *color,
     pthread_mutex_destroy(&j.mu);
     if (rc == FP_OK)
         rc = j.rc;
-    if (rc == FP_ERR)
-        goto oom;
-    if (rc)
+    if (rc && j.msg[0]) {
+        rc = fp_error("%s", j.msg);
         goto done;
+    }
+    if (rc)
+        goto oom;
     counts = malloc((n ? n : 1) * sizeof *counts);
     if (!counts || fp_deep_alloc(info, chans, nch, &d) || (d->info.has_alpha = 1, 0))
         goto oom;

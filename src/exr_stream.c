@@ -281,6 +281,17 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
         }
     }
 
+    /* The version's deep-data flag and the parts' types must agree. */
+    int any_deep = 0;
+    for (int p = 0; p < nparts; ++p)
+        any_deep |= parts[p].deep;
+    if (!multipart && any_deep != ((version & 0x800) != 0)) {
+        fp_error("%s: frame %ld: corrupt EXR header (the version field %s deep data, the "
+                 "part's type %s)", r.where, index, any_deep ? "does not flag" : "flags",
+                 any_deep ? "is deep" : "is not");
+        goto done;
+    }
+
     /* Offset tables: the frame ends with the chunk that starts last. */
     int64_t total = 0;
     for (int p = 0; p < nparts; ++p)
