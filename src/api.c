@@ -382,6 +382,41 @@ int fogpipe_parse_args(fogpipe_t *c, int argc, char **argv)
     return leave(c, rc);
 }
 
+/* A frame in memory checked (fn names the call in messages) and
+ * described as the pipeline's frames are. */
+static int frame_info(fogpipe_t *c, const char *fn, const fogpipe_frame_t *in, const void *out,
+                      fp_frame_info_t *info)
+{
+    char what[160];
+    if (!in || !in->rgba || !in->depth || !out) {
+        snprintf(what, sizeof what, "%s: %s is NULL (expected the frame's rgba and depth "
+                 "arrays and an output)", fn, !in ? "the frame" : !in->rgba ? "rgba"
+                                                      : !in->depth ? "depth" : "the output");
+        return fail(c, FP_EUSAGE, "%s", what);
+    }
+    if (in->width < 1 || in->height < 1 || (size_t)in->width > SIZE_MAX / 16 / (size_t)in->height ||
+        (long long)in->width * in->height > INT_MAX) {
+        snprintf(what, sizeof what, "%s: a frame of %dx%d pixels (expected a width and height "
+                 "of at least 1)", fn, in->width, in->height);
+        return fail(c, FP_EUSAGE, "%s", what);
+    }
+    memset(info, 0, sizeof *info);
+    info->width = info->disp_w = in->width;
+    info->height = info->disp_h = in->height;
+    info->pixel_aspect = 1;
+    info->num_parts = 1;
+    info->has_alpha = 1;
+    if (in->world_to_camera) {
+        info->has_world_to_camera = 1;
+        memcpy(info->world_to_camera, in->world_to_camera, sizeof info->world_to_camera);
+    }
+    if (in->world_to_ndc) {
+        info->has_world_to_ndc = 1;
+        memcpy(info->world_to_ndc, in->world_to_ndc, sizeof info->world_to_ndc);
+    }
+    return FP_OK;
+}
+
 int fogpipe_apply(fogpipe_t *c, const fogpipe_frame_t *in, float *out_rgba, float *out_fog_rgba,
                   float *out_transmittance)
 {
@@ -390,34 +425,10 @@ int fogpipe_apply(fogpipe_t *c, const fogpipe_frame_t *in, float *out_rgba, floa
     int rc = enter(c, "fogpipe_apply");
     if (rc)
         return rc;
-    if (!in || !in->rgba || !in->depth || !out_rgba)
-        return leave(c, fail(c, FP_EUSAGE, "fogpipe_apply: %s is NULL (expected the frame's "
-                                           "rgba and depth arrays and an output array)",
-                             !in ? "the frame" : !in->rgba ? "rgba" : !in->depth ? "depth"
-                                                                               : "out_rgba"));
-    if (in->width < 1 || in->height < 1 || (size_t)in->width > SIZE_MAX / 16 / (size_t)in->height ||
-        (long long)in->width * in->height > INT_MAX) {
-        char dims[64];
-        snprintf(dims, sizeof dims, "%dx%d", in->width, in->height);
-        return leave(c, fail(c, FP_EUSAGE, "fogpipe_apply: a frame of %s pixels (expected a "
-                                           "width and height of at least 1)", dims));
-    }
-    const char *name = in->name ? in->name : "<memory>";
     fp_frame_info_t info;
-    memset(&info, 0, sizeof info);
-    info.width = info.disp_w = in->width;
-    info.height = info.disp_h = in->height;
-    info.pixel_aspect = 1;
-    info.num_parts = 1;
-    info.has_alpha = 1;
-    if (in->world_to_camera) {
-        info.has_world_to_camera = 1;
-        memcpy(info.world_to_camera, in->world_to_camera, sizeof info.world_to_camera);
-    }
-    if (in->world_to_ndc) {
-        info.has_world_to_ndc = 1;
-        memcpy(info.world_to_ndc, in->world_to_ndc, sizeof info.world_to_ndc);
-    }
+    if ((rc = frame_info(c, "fogpipe_apply", in, out_rgba, &info)))
+        return leave(c, rc);
+    const char *name = in->name ? in->name : "<memory>";
     if (!c->session && (rc = fp_session_open(&c->p, &c->session)))
         return leave(c, rc);
     size_t n = (size_t)in->width * in->height;
@@ -426,6 +437,84 @@ int fogpipe_apply(fogpipe_t *c, const fogpipe_frame_t *in, float *out_rgba, floa
     rc = fp_session_frame(c->session, &info, out_rgba, in->depth, name, in->frame, out_fog_rgba,
                           out_transmittance);
     return leave(c, rc);
+}
+
+/* What fogpipe_apply_deep hands out: the public view and its arrays. */
+typedef struct deep_result_t {
+    fogpipe_deep_t pub;
+    unsigned long long *offsets;
+    float *rgba, *z, *zback;
+} deep_result_t;
+
+void fogpipe_deep_free(fogpipe_deep_t *d)
+{
+    deep_result_t *r = (deep_result_t *)d;
+    if (!r)
+        return;
+    free((void *)r->pub.counts);
+    free(r->offsets);
+    free(r->rgba);
+    free(r->z);
+    free(r->zback);
+    free(r);
+}
+
+int fogpipe_apply_deep(fogpipe_t *c, const fogpipe_frame_t *in, fogpipe_deep_t **out)
+{
+    if (!c)
+        return FOGPIPE_EUSAGE;
+    int rc = enter(c, "fogpipe_apply_deep");
+    if (rc)
+        return rc;
+    fp_frame_info_t info;
+    if (out)
+        *out = NULL;
+    if ((rc = frame_info(c, "fogpipe_apply_deep", in, out, &info)))
+        return leave(c, rc);
+    const char *name = in->name ? in->name : "<memory>";
+    if (!c->session && (rc = fp_session_open(&c->p, &c->session)))
+        return leave(c, rc);
+    fp_deep_image_t *d = NULL;
+    if ((rc = fp_session_deep(c->session, &info, in->rgba, in->depth, name, in->frame, &d)))
+        return leave(c, rc);
+    deep_result_t *r = calloc(1, sizeof *r);
+    size_t n = d->npix, t = (size_t)d->total;
+    unsigned int *counts = r ? malloc((n ? n : 1) * sizeof *counts) : NULL;
+    if (r) {
+        r->pub.counts = counts;
+        r->offsets = malloc((n + 1) * sizeof *r->offsets);
+        r->rgba = malloc((t ? t : 1) * 4 * sizeof(float));
+        r->z = malloc((t ? t : 1) * sizeof(float));
+        r->zback = malloc((t ? t : 1) * sizeof(float));
+    }
+    if (!r || !counts || !r->offsets || !r->rgba || !r->z || !r->zback) {
+        if (r)
+            fogpipe_deep_free(&r->pub);
+        fp_deep_free(d);
+        return leave(c, fp_error("%s: frame %ld: out of memory for deep samples", name,
+                                 in->frame));
+    }
+    for (size_t i = 0; i <= n; i++) {
+        if (i < n)
+            counts[i] = d->counts[i];
+        r->offsets[i] = d->offsets[i];
+    }
+    for (size_t k = 0; k < t; k++) {
+        for (int ch = 0; ch < 4; ch++)
+            memcpy(&r->rgba[4 * k + ch], &d->data[d->role[FP_DCH_R + ch]][k], sizeof(float));
+        memcpy(&r->z[k], &d->data[d->role[FP_DCH_Z]][k], sizeof(float));
+        memcpy(&r->zback[k], &d->data[d->role[FP_DCH_ZBACK]][k], sizeof(float));
+    }
+    r->pub.width = in->width;
+    r->pub.height = in->height;
+    r->pub.offsets = r->offsets;
+    r->pub.total = t;
+    r->pub.rgba = r->rgba;
+    r->pub.z = r->z;
+    r->pub.zback = r->zback;
+    fp_deep_free(d);
+    *out = &r->pub;
+    return leave(c, FP_OK);
 }
 
 int fogpipe_run(fogpipe_t *c, int flags)

@@ -151,6 +151,14 @@ typedef struct fp_exr_worker_t {
  * NULL. */
 fp_exr_worker_t *fp_exr_run_workers(void *(*fn)(void *), void *job, fp_exr_worker_t *wk, int n);
 
+/* ------------------------------------------------------------ header copy
+ * (exr_write.c; the deep writer, exr_deep.c, copies headers the same way) */
+
+/* 1 for attributes the writer sets itself (channels, windows, type...). */
+int fp_exr_is_structural_attr(const char *name);
+/* Copy one attribute of an input header to part op of an output. */
+exr_result_t fp_exr_copy_attr(exr_context_t o, int op, const exr_attribute_t *a);
+
 /* ------------------------------------------------------------ ZIP codec
  * (exr_zip.c) */
 

@@ -227,10 +227,6 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
                  index, version & 0xff);
         goto done;
     }
-    if (version & 0x800) {
-        fp_error("%s: frame %ld: deep EXR data is not supported", r.where, index);
-        goto done;
-    }
     pos = 8;
     for (;;) {
         fp_exr_hpart_t sp;
@@ -247,9 +243,9 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
         if (!multipart && (version & 0x200)) {
             sp.tiled = 1;
         }
-        if (sp.deep) {
-            fp_error("%s: frame %ld: part %d holds deep data, which is not "
-                     "supported", r.where, index, nparts);
+        if (sp.deep && sp.tiled) {
+            fp_error("%s: frame %ld: part %d holds deep tiled data, which is not "
+                     "supported (expected deep scanline)", r.where, index, nparts);
             goto done;
         }
         if (sp.tiled && !sp.has_tiles) {
@@ -283,6 +279,17 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
                      fp_image_limits()->max_parts);
             goto done;
         }
+    }
+
+    /* The version's deep-data flag and the parts' types must agree. */
+    int any_deep = 0;
+    for (int p = 0; p < nparts; ++p)
+        any_deep |= parts[p].deep;
+    if (!multipart && any_deep != ((version & 0x800) != 0)) {
+        fp_error("%s: frame %ld: corrupt EXR header (the version field %s deep data, the "
+                 "part's type %s)", r.where, index, any_deep ? "does not flag" : "flags",
+                 any_deep ? "is deep" : "is not");
+        goto done;
     }
 
     /* Offset tables: the frame ends with the chunk that starts last. */
@@ -330,6 +337,25 @@ int fp_exr_stream_next(FILE *in, const char *where_file, long index,
                      r.where, index, part, nparts);
             goto done;
         }
+    }
+    /* deep scanline: y, the sizes of the packed sample count table, of
+     * the packed data and of the unpacked data, then table and data */
+    if (parts[part].deep) {
+        if (sr_need(&r, at + 28) != FP_OK)
+            goto done;
+        uint64_t tsize = fp_exr_rd_u64(r.buf + at + 4), psize = fp_exr_rd_u64(r.buf + at + 12);
+        if (tsize > FP_EXR_MAX_FILE || psize > FP_EXR_MAX_FILE) {
+            fp_error("%s: frame %ld: corrupt deep EXR chunk (sizes %llu and %llu)", r.where,
+                     index, (unsigned long long) tsize, (unsigned long long) psize);
+            goto done;
+        }
+        if (sr_need(&r, at + 28 + tsize + psize) != FP_OK || cut_short(&r, (size_t) last))
+            goto done;
+        *buf = r.buf;
+        *size = r.len;
+        r.buf = NULL;
+        rc = FP_OK;
+        goto done;
     }
     /* tiled: tile x, y, level x, y; scanline: y; then the data size */
     uint64_t lead = parts[part].tiled ? 16 : 4;

@@ -119,7 +119,7 @@ typedef struct out_part_t {
 
 /* Attributes the library sets from our calls, or that describe the
  * input's layout (tiling, chunk count), not the image. */
-static int is_structural_attr(const char *name)
+int fp_exr_is_structural_attr(const char *name)
 {
     static const char *const names[] = {
         "channels", "compression", "dataWindow", "displayWindow", "lineOrder",
@@ -132,7 +132,7 @@ static int is_structural_attr(const char *name)
     return 0;
 }
 
-static exr_result_t copy_attr(exr_context_t o, int op, const exr_attribute_t *a)
+exr_result_t fp_exr_copy_attr(exr_context_t o, int op, const exr_attribute_t *a)
 {
     const char *n = a->name;
     switch (a->type) {
@@ -573,10 +573,10 @@ int fp_exr_encode(const fp_frame_t *f, const float *rgba,
                         frame, a->type_name);
                 continue;
             }
-            if (rv == EXR_ERR_SUCCESS && a && !is_structural_attr(a->name) &&
+            if (rv == EXR_ERR_SUCCESS && a && !fp_exr_is_structural_attr(a->name) &&
                 !(p == f->main_part && opts->set_chromaticities &&
                   strcmp(a->name, "chromaticities") == 0))
-                rv = copy_attr(o, idx, a);
+                rv = fp_exr_copy_attr(o, idx, a);
         }
         if (rv == EXR_ERR_SUCCESS && p == f->main_part && opts->set_chromaticities > 0) {
             const float *c = opts->chromaticities;

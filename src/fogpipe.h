@@ -145,6 +145,23 @@ typedef struct fogpipe_frame_t {
 int fogpipe_apply(fogpipe_t *ctx, const fogpipe_frame_t *in, float *out_rgba,
                   float *out_fog_rgba, float *out_transmittance);
 
+/* The fog of `in` as deep samples: what --deep writes (README "Deep
+ * compositing"), whatever that option says.  Pixel i holds counts[i]
+ * samples from offsets[i]: premultiplied RGBA (the output color space),
+ * Z and ZBack (the depth's convention), sorted and not overlapping; the
+ * fog's volumetric samples, then the surface as a point sample at its
+ * depth.  *out is the caller's: free it with fogpipe_deep_free. */
+typedef struct fogpipe_deep_t {
+    int width, height;
+    const unsigned int *counts;          /* width*height */
+    const unsigned long long *offsets;   /* width*height + 1 */
+    unsigned long long total;            /* samples */
+    const float *rgba;                   /* total*4 */
+    const float *z, *zback;              /* total */
+} fogpipe_deep_t;
+int fogpipe_apply_deep(fogpipe_t *ctx, const fogpipe_frame_t *in, fogpipe_deep_t **out);
+void fogpipe_deep_free(fogpipe_deep_t *d);
+
 /* Files and streams: run the options' -i/-o (and --frames, ...) as the
  * command line does, or the command asked for (--help, --version,
  * --list-devices, --list-spaces) onto stdout.  FOGPIPE_RUN_SIGNALS

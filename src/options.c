@@ -27,6 +27,7 @@ extern const fp_option_t fp_aov_options[];
 extern const fp_option_t fp_preview_options[];
 extern const fp_option_t fp_run_options[];
 extern const fp_option_t fp_rig_options[];
+extern const fp_option_t fp_deep_options[];
 
 #define CMD(f) offsetof(fp_params_t, cmd.f)
 static const fp_option_t cmd_options[] = {
@@ -60,6 +61,7 @@ const fp_option_group_t fp_option_groups[] = {
     { "Color (OpenColorIO)", fp_color_options },
     { "Fog layers (AOVs)", fp_aov_options },
     { "Previews", fp_preview_options },
+    { "Deep output", fp_deep_options },
     { "Sequences and farms", fp_run_options },
     { NULL, NULL }
 };

@@ -203,6 +203,13 @@ typedef struct fp_buffers_params_t {
     double edge_threshold;  /* relative distance difference that makes an edge pixel */
 } fp_buffers_params_t;
 
+typedef struct fp_deep_params_t {   /* filters/deep.c */
+    int deep;             /* write deep scanline EXR */
+    double bound;         /* error the split rule may make */
+    int max_samples;      /* fog samples per pixel at most */
+    double max_alpha;     /* fog samples split until none is more opaque */
+} fp_deep_params_t;
+
 typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     int pipeline;         /* 1: read, compute and write on three threads */
     int progress;         /* FP_PROGRESS_* */
@@ -238,6 +245,7 @@ typedef struct fp_params_t {
     fp_run_params_t run;
     fp_reference_params_t reference;
     fp_buffers_params_t buffers;
+    fp_deep_params_t deep;
     fp_cmd_params_t cmd;
     /* Names of the options the user gave (CLI or preset), for "was this
      * set?" questions such as camera overrides. */

@@ -4,6 +4,7 @@
 #include "clrt.h"
 #include "color.h"
 #include "composite.h"
+#include "deep_frame.h"
 #include "preview.h"
 #include "exrio.h"
 #include "fogmap.h"
@@ -139,6 +140,8 @@ typedef struct run_t {
     size_t pool_px[3];
     fp_color_t color;                /* OpenColorIO spaces and processors (thread-safe) */
     fp_preview_t preview;            /* previews written, for the contact sheet (locked) */
+    fp_deep_data_t deep;             /* --deep (filters/deep.h) */
+    fp_deep_stats_t deep_stats;      /* samples written (calling thread) */
 } run_t;
 
 /* One frame between the stages: read_frame (reader thread), process_frame
@@ -153,6 +156,7 @@ typedef struct frame_state_t {
                                     this frame, which lives until it is written) */
     fp_color_frame_t color;      /* this frame's color spaces (filters/color.h) */
     fp_aov_frame_t aov;          /* fog layers written with it (filters/aov.h) */
+    fp_deep_image_t *din, *dout; /* --deep: a deep input; the deep output */
 } frame_state_t;
 
 /* A fog layer of n pixels: one handed back by an earlier frame if any. */
@@ -206,8 +210,16 @@ static int read_frame(run_t *r, fp_loop_job_t *job, void *buf, size_t size)
     job->data = fs;
     fs->wopts = r->wopts;
     double t0 = fp_now_ms(), t_depth_read = 0;
-    int rc = fp_exr_read_memory(buf, size, in_name, frame, &r->sel, &fs->f);
-    if (rc == FP_OK && p->io.depth) {
+    int deep_in = fp_exr_is_deep(buf, size);
+    if (deep_in && (!r->deep.on || p->io.depth)) {
+        free(buf);
+        return fp_error("%s: frame %ld: a deep image (%s)", in_name, frame,
+                        p->io.depth ? "it carries its own Z: no --depth"
+                                    : "use --deep to fog it into deep output");
+    }
+    int rc = deep_in ? fp_deep_read_memory(buf, size, in_name, frame, &fs->din)
+                     : fp_exr_read_memory(buf, size, in_name, frame, &r->sel, &fs->f);
+    if (rc == FP_OK && p->io.depth && !deep_in) {
         char dpath[4096];
         fp_exr_select_t dsel = r->sel;
         dsel.need_color = 0;
@@ -459,6 +471,33 @@ static int frame_params(run_t *r, const fp_rig_t *rig, const char *in_name, long
     return FP_OK;
 }
 
+/* --deep: a frame's fog as deep samples (filters/deep_frame.h) over a
+ * plate (rgba, depth) or a deep input (din), on the host in double
+ * precision whatever the device. */
+static int deep_image(run_t *r, const fp_deep_data_t *dd, const fp_camera_t *cam,
+                      const fp_frame_info_t *info, const fp_frame_t *plate, const float *rgba,
+                      const float *depth, const fp_deep_image_t *din, const char *name,
+                      long frame, fp_color_frame_t *color, fp_deep_image_t **out)
+{
+    /* The frame's parameters (its rig over the options) where it has them. */
+    fp_params_t *p = r->fp ? r->fp : r->p;
+    fp_view_t view;
+    float *front = din ? fp_deep_front_depth(din, p->camera.depth_kind) : NULL;
+    if (din)
+        depth = front;
+    int rc = depth ? FP_OK : fp_error("%s: frame %ld: out of memory", name, frame);
+    if (rc == FP_OK && (rc = fp_view_setup(cam, p, info, &view)) == FP_OK &&
+        (rc = fp_fogmap_frame(p, r->cl, &r->fogmap, frame, &view, &r->fog)) == FP_OK &&
+        (!r->light.active ||
+         (rc = fp_scatter_frame(p, &r->light, &r->fog, &view, depth, frame)) == FP_OK) &&
+        (rc = fp_color_frame(&r->color, info, name, frame, color)) == FP_OK) {
+        fp_deep_fog_t df = { dd, &r->fog, &r->light, &view, depth };
+        rc = fp_deep_frame(&df, color, info, plate, rgba, din, name, frame, out, &r->deep_stats);
+    }
+    free(front);
+    return rc;
+}
+
 /* Stage 2, calling thread (it owns the device): fog one decoded frame and
  * composite it in place, with the frame's parameters (frame_params). */
 static int process_frame_with(run_t *r, fp_loop_job_t *job, const fp_rig_t *rig)
@@ -469,7 +508,7 @@ static int process_frame_with(run_t *r, fp_loop_job_t *job, const fp_rig_t *rig)
     const char *in_name = job->in;
     long frame = job->frame;
     int rc;
-    const fp_frame_info_t *info = fp_frame_info(f);
+    const fp_frame_info_t *info = fs->din ? &fs->din->info : fp_frame_info(f);
     fp_camera_t cam;
     if ((rc = fp_camera_resolve(r->fp, info, in_name, frame, &cam)))
         return rc;
@@ -478,6 +517,15 @@ static int process_frame_with(run_t *r, fp_loop_job_t *job, const fp_rig_t *rig)
         if (rig->any || r->rigfile)
             fp_rig_print(stdout, rig, r->fp);
         return FP_OK;
+    }
+    if (r->deep.on) {
+        double t0 = fp_now_ms();
+        rc = deep_image(r, &r->deep, &cam, info, f, f ? fp_frame_rgba(f) : NULL,
+                        f ? fp_frame_depth(f) : NULL, fs->din, in_name, frame, &fs->color,
+                        &fs->dout);
+        fp_color_write_opts(&fs->color, &fs->wopts);
+        job->ms[FP_T_FOG] = fp_now_ms() - t0;
+        return rc;
     }
     size_t n = (size_t)info->width * info->height;
     float *fog = fs->fog = fog_get(r, n);
@@ -502,7 +550,8 @@ static int process_frame(run_t *r, fp_loop_job_t *job)
     frame_state_t *fs = job->data;
     fp_rig_t rig;
     /* This frame's rig (what it carries, under --rig's) over the options. */
-    int rc = fp_rig_frame(r->rigfile, fp_frame_info(fs->f), job->in, job->frame, &rig);
+    int rc = fp_rig_frame(r->rigfile, fs->din ? &fs->din->info : fp_frame_info(fs->f), job->in,
+                          job->frame, &rig);
     if (rc)
         return rc;
     if ((rc = frame_params(r, &rig, job->in, job->frame)) == FP_OK)
@@ -529,16 +578,21 @@ static int write_frame(run_t *r, fp_loop_job_t *job)
     if (p->cmd.print_camera)
         return FP_OK;
     double t0 = fp_now_ms();
-    if (!r->preview.out_image &&
-        (rc = fp_exr_encode(f, fp_frame_rgba(f), &fs->wopts, out_name, frame, &bytes, &nbytes)))
+    if (fs->dout || fs->din)
+        rc = fs->dout ? fp_deep_encode(fs->dout, f, &fs->wopts, out_name, frame, &bytes, &nbytes)
+                      : fp_error("%s: frame %ld: no deep output made", out_name, frame);
+    else if (!r->preview.out_image)
+        rc = fp_exr_encode(f, fp_frame_rgba(f), &fs->wopts, out_name, frame, &bytes, &nbytes);
+    if (rc)
         goto done;
     double t1 = fp_now_ms();
     job->ms[FP_T_ENCODE] = t1 - t0;
     /* The preview before the frame: an output frame on disk means a whole
      * frame (--skip-existing). */
     fp_loop_commit_begin();
-    rc = fp_preview_frame(&r->preview, &fs->color, fp_frame_rgba(f), fp_frame_info(f)->width,
-                          fp_frame_info(f)->height, frame);
+    if (!fs->dout)
+        rc = fp_preview_frame(&r->preview, &fs->color, fp_frame_rgba(f), fp_frame_info(f)->width,
+                              fp_frame_info(f)->height, frame);
     fp_loop_commit_end(NULL);
     if (rc)
         goto done;
@@ -583,6 +637,8 @@ static void stage_release(void *ctx, fp_loop_job_t *job)
         fp_frame_free(fs->f);
     fog_put(r, fs->fog, fs->fog_px);
     fp_aov_free(&fs->aov);
+    fp_deep_free(fs->din);
+    fp_deep_free(fs->dout);
     free(fs);
     job->data = NULL;
 }
@@ -623,7 +679,7 @@ static int setup(run_t *r)
     if (defer)
         q.light.shadow_map = NULL;
     int rc = fp_integrate_commit(p, &r->fog);
-    if (rc || (rc = fp_scatter_commit(&q, &r->light)))
+    if (rc || (rc = fp_scatter_commit(&q, &r->light)) || (rc = fp_deep_commit(p, &r->deep)))
         return rc;
     r->fp = p;
     r->light_key = fp_rig_light_key(p) ^ (uint64_t)defer;
@@ -934,6 +990,12 @@ int fp_pipeline_run(fp_params_t *p)
     }
     if (rc == FP_OK && !p->cmd.print_camera)
         rc = fp_preview_finish(&r.preview);
+    if (r.deep_stats.pixels)
+        fp_info("deep: %.2f samples a pixel (%.2f of fog) over %ld pixels, %ld pixels at "
+                "--deep-max-samples, %.1f fog evaluations a pixel",
+                (double)r.deep_stats.samples / r.deep_stats.pixels,
+                (double)r.deep_stats.fog_samples / r.deep_stats.pixels, r.deep_stats.pixels,
+                r.deep_stats.capped, (double)r.deep_stats.evals / r.deep_stats.pixels);
     run_release(&r);
     fp_loop_signals_stop();
     return rc;
@@ -1000,6 +1062,21 @@ int fp_session_frame(fp_session_t *s, const fp_frame_info_t *info, float *rgba,
         }
     }
     free(fog);
+    return rc;
+}
+
+int fp_session_deep(fp_session_t *s, const fp_frame_info_t *info, const float *rgba,
+                    const float *depth, const char *name, long frame, fp_deep_image_t **out)
+{
+    run_t *r = &s->r;
+    fp_params_t q = *r->p;
+    q.deep.deep = 1;
+    fp_deep_data_t dd;
+    fp_camera_t cam;
+    fp_color_frame_t color;
+    int rc = fp_deep_commit(&q, &dd);
+    if (rc == FP_OK && (rc = fp_camera_resolve(r->p, info, name, frame, &cam)) == FP_OK)
+        rc = deep_image(r, &dd, &cam, info, NULL, rgba, depth, NULL, name, frame, &color, out);
     return rc;
 }
 

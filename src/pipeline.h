@@ -6,6 +6,7 @@
 #ifndef FP_PIPELINE_H
 #define FP_PIPELINE_H
 
+#include "exr_deep.h"
 #include "exrio.h"
 #include "params.h"
 
@@ -24,6 +25,11 @@ int fp_session_open(fp_params_t *p, fp_session_t **out);
 int fp_session_frame(fp_session_t *s, const fp_frame_info_t *info, float *rgba,
                      const float *depth, const char *name, long frame, float *fog_rgba,
                      float *transmittance);
+/* The fog of `rgba` (the input space) and `depth` as deep samples, as
+ * --deep makes them whatever the options say (filters/deep_frame.h);
+ * *out is the caller's (fp_deep_free). */
+int fp_session_deep(fp_session_t *s, const fp_frame_info_t *info, const float *rgba,
+                    const float *depth, const char *name, long frame, fp_deep_image_t **out);
 void fp_session_close(fp_session_t *s);
 
 #endif

@@ -247,5 +247,27 @@ check("the camera matrices times 1e300 or 1e-300: the same frame, finite", scale
 check("a worldToNDC of NaN raises with its name", lambda: raises(
     apply_with(world_to_ndc=np.full((4, 4), np.nan)), "worldToNDC has a non-finite element"))
 
+
+
+def deep():
+    # the deep result composited front to back is the flat composite
+    counts, offsets, srgba, z, zb = fogpipe.Context(**opts).apply_deep(
+        rgba, depth, world_to_camera=w2c, world_to_ndc=w2n)
+    flat = fogpipe.apply(rgba, depth, world_to_camera=w2c, world_to_ndc=w2n, **opts)
+    assert counts.shape == depth.shape and offsets[-1] == len(z) == len(srgba)
+    worst = 0.0
+    for i in range(0, counts.size, 7):
+        c = np.zeros(4)
+        for k in range(offsets[i], offsets[i + 1]):
+            assert zb[k] >= z[k] and (k == offsets[i] or z[k] >= zb[k - 1])
+            c += (1 - c[3]) * srgba[k]
+        worst = max(worst, float(np.abs(c[:3] - flat.reshape(-1, 4)[i, :3]).max()))
+    print("# deep result flattened vs apply: max |d| %.3g, %.1f samples a pixel"
+          % (worst, len(z) / counts.size))
+    assert worst <= 1e-4, worst
+
+
+check("Context.apply_deep: tidy samples that composite to apply's frame", deep)
+
 print("1..%d" % n)
 sys.exit(1 if failed else 0)

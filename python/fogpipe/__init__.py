@@ -85,6 +85,21 @@ _lib.fogpipe_set.restype = ctypes.c_int
 _lib.fogpipe_apply.argtypes = [ctypes.c_void_p, ctypes.POINTER(_Frame), _c_float_p,
                                _c_float_p, _c_float_p]
 _lib.fogpipe_apply.restype = ctypes.c_int
+
+
+class _Deep(ctypes.Structure):
+    _fields_ = [("width", ctypes.c_int), ("height", ctypes.c_int),
+                ("counts", ctypes.POINTER(ctypes.c_uint)),
+                ("offsets", ctypes.POINTER(ctypes.c_ulonglong)),
+                ("total", ctypes.c_ulonglong), ("rgba", _c_float_p),
+                ("z", _c_float_p), ("zback", _c_float_p)]
+
+
+_lib.fogpipe_apply_deep.argtypes = [ctypes.c_void_p, ctypes.POINTER(_Frame),
+                                    ctypes.POINTER(ctypes.POINTER(_Deep))]
+_lib.fogpipe_apply_deep.restype = ctypes.c_int
+_lib.fogpipe_deep_free.argtypes = [ctypes.POINTER(_Deep)]
+_lib.fogpipe_deep_free.restype = None
 _lib.fogpipe_run.argtypes = [ctypes.c_void_p, ctypes.c_int]
 _lib.fogpipe_run.restype = ctypes.c_int
 
@@ -181,13 +196,9 @@ class Context:
             self._call(_lib.fogpipe_set, opt.encode(), _value(value).encode(),
                        ("fogpipe: %s=%r" % (name, value)).encode())
 
-    def apply(self, rgba, depth, world_to_camera=None, world_to_ndc=None, frame=1, aov=False):
-        """Fog one frame: rgba HxWx4 and depth HxW, scene-linear float
-        (float32; float64 and float16 are converted, other dtypes refused),
-        the camera as OpenEXR's 4x4 worldToCamera and worldToNDC (row
-        vectors), or from the options.  Returns the composite (HxWx4
-        float32), and with aov=True also the fog layer (HxWx4: light, and
-        alpha 1 - transmittance) and the transmittance (HxWx3)."""
+    def _frame(self, rgba, depth, world_to_camera, world_to_ndc, frame):
+        """The arrays checked and held as a _Frame (with the arrays that
+        must live as long as it)."""
         rgba = np.asarray(rgba)
         depth = np.asarray(depth)
         if rgba.ndim != 3 or rgba.shape[2] != 4:
@@ -225,6 +236,16 @@ class Context:
         fr.world_to_ndc = mats[1].ctypes.data_as(_c_double_p) if mats[1] is not None else None
         fr.frame = int(frame)
         fr.name = b"<numpy>"
+        return fr, (rgba, depth, mats), h, w
+
+    def apply(self, rgba, depth, world_to_camera=None, world_to_ndc=None, frame=1, aov=False):
+        """Fog one frame: rgba HxWx4 and depth HxW, scene-linear float
+        (float32; float64 and float16 are converted, other dtypes refused),
+        the camera as OpenEXR's 4x4 worldToCamera and worldToNDC (row
+        vectors), or from the options.  Returns the composite (HxWx4
+        float32), and with aov=True also the fog layer (HxWx4: light, and
+        alpha 1 - transmittance) and the transmittance (HxWx3)."""
+        fr, keep, h, w = self._frame(rgba, depth, world_to_camera, world_to_ndc, frame)
         out = np.empty((h, w, 4), dtype=np.float32)
         fog = np.empty((h, w, 4), dtype=np.float32) if aov else None
         tau = np.empty((h, w, 3), dtype=np.float32) if aov else None
@@ -232,6 +253,26 @@ class Context:
                    fog.ctypes.data_as(_c_float_p) if aov else None,
                    tau.ctypes.data_as(_c_float_p) if aov else None)
         return (out, fog, tau) if aov else out
+
+    def apply_deep(self, rgba, depth, world_to_camera=None, world_to_ndc=None, frame=1):
+        """The fog of one frame as deep samples, as --deep writes them
+        (README "Deep compositing"): returns (counts HxW uint32, offsets
+        H*W+1 uint64: pixel i's samples are offsets[i]..offsets[i+1], rgba
+        Nx4 premultiplied, z N, zback N), sorted and not overlapping per
+        pixel, the surface's sample last."""
+        fr, keep, h, w = self._frame(rgba, depth, world_to_camera, world_to_ndc, frame)
+        d = ctypes.POINTER(_Deep)()
+        self._call(_lib.fogpipe_apply_deep, ctypes.byref(fr), ctypes.byref(d))
+        try:
+            n, t = h * w, d.contents.total
+            counts = np.ctypeslib.as_array(d.contents.counts, (n,)).reshape(h, w).copy()
+            offsets = np.ctypeslib.as_array(d.contents.offsets, (n + 1,)).copy()
+            rgba_s = np.ctypeslib.as_array(d.contents.rgba, (max(t, 1) * 4,))[:t * 4].reshape(t, 4).copy()
+            z = np.ctypeslib.as_array(d.contents.z, (max(t, 1),))[:t].copy()
+            zb = np.ctypeslib.as_array(d.contents.zback, (max(t, 1),))[:t].copy()
+        finally:
+            _lib.fogpipe_deep_free(d)
+        return counts, offsets, rgba_s, z, zb
 
     def run(self):
         """Run the options' files or streams (input, output, frames...)."""
