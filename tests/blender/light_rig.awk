@@ -4,7 +4,8 @@
 #   flags F OPTIONS...        light_truth.py's line: --sun D --sun-color C
 #                             --sun-intensity E, --light point:P:I:1,
 #                             --light spot:P:I:1:A:INNER,OUTER
-#   fogpipe's --print-camera lines (rig, light K sun/point/spot ...).
+#   fogpipe's --print-camera lines (rig, sun toward ..., light K
+#                             sun/point/spot ...).
 # Every truth light must be matched, in order per kind, by one light of the
 # rig with the same kind, position, direction (1e-4), intensity or
 # irradiance (relative 1e-4) and cone (0.01 degree); the rig's up axis z
@@ -43,6 +44,13 @@ $1 == "flags" {
     if (w[3] != "z" || w[4] != "(rig)") { print "MISS rig: up " w[3] " " w[4] ", Blender z (rig)"; bad = 1 }
     if (!near(w[7], clip, 1e-6) || w[8] != "(rig)") {
         print "MISS rig: clip start " w[7] " " w[8] ", Blender " clip " (rig)"; bad = 1 }
+    next
+}
+# The rig's first sun, shown as --sun would be.
+/^ *sun +toward / {
+    line = $0; gsub(/,/, "", line); split(line, w, " ")
+    nr++; rk[nr] = "sun"
+    for (c = 1; c <= 3; c++) { rdir[nr, c] = w[2 + c]; rval[nr, c] = w[6 + c] }
     next
 }
 /^ *light +[0-9]+ / {
