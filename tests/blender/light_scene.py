@@ -1,6 +1,6 @@
 # tests/blender_light.sh: Cycles renders lit fog (single scattering) for
 # fogpipe to match.
-#   blender -b --factory-startup -noaudio -P fogpipe_camera.py -P tests/blender/light_truth.py \
+#   blender -b --factory-startup -noaudio -P fogpipe_blender.py -P tests/blender/light_truth.py \
 #     -P tests/blender/light_scene.py -- OUTDIR SAMPLES PROFILE [map=768] [clip=1e-4] \
 #     [lights=sun,point,spot] [last=3] [shadow=PATH]
 # shadow=PATH: the plate's rig names PATH (from OUTDIR; e.g. the script's
@@ -20,7 +20,7 @@
 # --height Y0,H profile (1 below Y0, exp(-(z - Y0)/H) above it) of the
 # shading point's z ("homog": homogeneous).  Every surface is purely
 # emissive (known colors: the plate is exact and noiseless); the world is
-# black.  Cycles renders, with the add-on (-P fogpipe_camera.py: the
+# black.  Cycles renders, with the add-on (-P fogpipe_blender.py: the
 # camera in every frame's Note):
 #   OUTDIR/plate.####.exr   frames 1-3, no fog, 1 sample: the plate
 #                           (MultiLayer, Z pass);
