@@ -21,7 +21,8 @@
 # shading point's z ("homog": homogeneous).  Every surface is purely
 # emissive (known colors: the plate is exact and noiseless); the world is
 # black.  Cycles renders, with the add-on (-P fogpipe_blender.py: the
-# camera in every frame's Note):
+# camera and the rig, the lights, up axis and clip start, in every frame's
+# header):
 #   OUTDIR/plate.####.exr   frames 1-3, no fog, 1 sample: the plate
 #                           (MultiLayer, Z pass);
 #   OUTDIR/trans.####.exr   the plate through the fog: absorption SIGMA
