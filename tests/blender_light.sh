@@ -22,12 +22,17 @@
 #     point light's brightest fog is on Blender's pixel for it;
 #   - the comparison fails with twice the density, and with the sun 25% too
 #     strong (or, with the lights from the frame, with --lights none).
-# FP_LIGHT_FLAGS says where fogpipe's lights come from: "truth" (default:
-# the options light_truth.py computed from Blender's lights, --up z, and
-# the sun's map with worldToCamera/worldToNDC copied from its Note into
-# typed header attributes; the camera's clip start 1e-4 m) or "none" (no
-# light, shadow or up option: what the frames carry, the clip start
-# Blender's default 0.1 m).  Skips when blender is not installed.
+# FP_LIGHT_FLAGS says where fogpipe's lights come from: "none" (default:
+# no light, shadow, up or clip option, only the medium's: the plate's rig
+# from the add-on, samples/blender/fogpipe_blender.py, carries the suns,
+# lights, up axis, Blender's default clip start 0.1 m and the sun's map,
+# the script's sunmap.0001.exr whose camera fogpipe reads from its Note;
+# then, per frame, the lights --print-camera shows from the rig must be
+# light_truth.py's, tests/blender/light_rig.awk) or "truth" (the options
+# light_truth.py computed from Blender's lights, --up z, and the sun's map
+# with worldToCamera/worldToNDC copied from its Note into typed header
+# attributes; the camera's clip start 1e-4 m).  FP_BLENDER_ADDON: the
+# add-on to render with.  Skips when blender is not installed.
 . "${FP_SRCDIR:-.}/tests/lib.sh"
 BLENDER=${BLENDER:-blender}
 if ! command -v "$BLENDER" >/dev/null 2>&1; then
@@ -35,9 +40,9 @@ if ! command -v "$BLENDER" >/dev/null 2>&1; then
   finish
   exit $?
 fi
-ADDON=${FP_BLENDER_ADDON:-$FP_SRCDIR/samples/blender/fogpipe_camera.py}
+ADDON=${FP_BLENDER_ADDON:-$FP_SRCDIR/samples/blender/fogpipe_blender.py}
 TB="$FP_SRCDIR/tests/blender"
-FP_LIGHT_FLAGS=${FP_LIGHT_FLAGS:-truth}
+FP_LIGHT_FLAGS=${FP_LIGHT_FLAGS:-none}
 # Samples per seed: the height profile is ray-marched (2.5 times slower).
 SAMPLES_homog=${FP_LIGHT_SAMPLES:-128}
 SAMPLES_height=${FP_LIGHT_SAMPLES:-64}
@@ -46,7 +51,12 @@ MAXRMS=2.5
 # The camera's clip start, where Cycles' fog begins: at the camera while
 # fogpipe's fog begins there (truth); Blender's default 0.1 m when fogpipe
 # takes the clip start from the frame (none).
-case $FP_LIGHT_FLAGS in truth) CLIP=1e-4 ;; *) CLIP=0.1 ;; esac
+# With the lights from the frame the plate's rig names the script's own
+# sun map (shadow=, relative to the plate).
+case $FP_LIGHT_FLAGS in
+  truth) CLIP=1e-4 SHADOW= ;;
+  *) CLIP=0.1 SHADOW=shadow=sunmap.0001.exr ;;
+esac
 
 # light_flags DIR FRAME: fogpipe's options for the lights, shadows and up
 # axis of DIR's frame, the one place that says where they come from.
@@ -95,6 +105,17 @@ fog_frame() {
     "$ff_dir/$ff_name.$ff_f.values" > "$ff_dir/$ff_name.$ff_f.txt"
 }
 
+# rig_lights DIR FRAME: the lights, up axis, clip start and shadow map
+# that fogpipe reads from the plate's rig (--print-camera) are Blender's.
+rig_lights() {
+  "$FOGPIPE" --print-camera -i "$1/plate.####.exr" --frames "$2" > "$1/rig.$2.txt" 2>&1 ||
+    { cat "$1/rig.$2.txt"; return 1; }
+  grep -q "^ *shadow map .*sunmap.0001.exr (rig)" "$1/rig.$2.txt" ||
+    { echo "MISS the rig names no sunmap.0001.exr:"; cat "$1/rig.$2.txt"; return 1; }
+  { grep "^flags $2 " "$1/truth.$(printf %04d "$2").txt"; cat "$1/rig.$2.txt"; } |
+    awk -v clip="$CLIP" -f "$TB/light_rig.awk" - || { cat "$1/rig.$2.txt"; return 1; }
+}
+
 # sun_map DIR: the sun's map with its camera from the Note (fogpipe-camera
 # text) as typed worldToCamera/worldToNDC attributes: DIR/sunmap-m.exr.
 sun_map() {
@@ -132,10 +153,10 @@ for prof in homog height; do
   case $prof in homog) SAMPLES=$SAMPLES_homog ;; *) SAMPLES=$SAMPLES_height ;; esac
   check "$prof: Cycles renders the plate, its fog (single scattering, 2 seeds x $SAMPLES samples) and the sun's map" \
     sh -c '"$1" -b --factory-startup -noaudio -P "$2" -P "$3/light_truth.py" -P "$3/light_scene.py" \
-    -- "$4" "$5" "$6" clip="$7" > "$4.log" 2>&1 && test -f "$4/fogB.0003.exr" && test -f "$4/sunmap.0001.exr" &&
+    -- "$4" "$5" "$6" clip="$7" $8 > "$4.log" 2>&1 && test -f "$4/fogB.0003.exr" && test -f "$4/sunmap.0001.exr" &&
     test -f "$4/truth.0003.txt" && test -s "$4/sunmap.txt" ||
     { grep -i -E "error|traceback" "$4.log" | head -n 20; exit 1; }' \
-    sh "$BLENDER" "$ADDON" "$TB" "$D" "$SAMPLES" "$prof" "$CLIP"
+    sh "$BLENDER" "$ADDON" "$TB" "$D" "$SAMPLES" "$prof" "$CLIP" "$SHADOW"
   grep -E "^ Time: " "$D.log" 2>/dev/null | awk '{ split($2, t, ":"); s += 60 * t[1] + t[2] }
     END { printf "Cycles render time (wall): %.1f s\n", s }' > "$T/time.txt"
   diag "$T/time.txt"
@@ -145,6 +166,11 @@ for prof in homog height; do
   if map_texels "$D" > "$T/out.txt" 2>&1; then ok "$desc"; else not_ok "$desc"; fi
   diag "$T/out.txt"
   for f in 1 2 3; do
+    if [ "$FP_LIGHT_FLAGS" = none ]; then
+      desc="$prof: frame $f: the plate's rig (--print-camera) holds Blender's lights, up z, clip $CLIP, the sun's map"
+      if rig_lights "$D" $f > "$T/out.txt" 2>&1; then ok "$desc"; else not_ok "$desc"; fi
+      diag "$T/out.txt"
+    fi
     desc="$prof: frame $f: fogpipe's lit fog is Cycles' (|bias| <= 1%, 8x8 block rms <= $MAXRMS x noise)"
     if fog_frame "$D" $f fog > "$T/out.txt" 2>&1; then ok "$desc"; else not_ok "$desc"; diag "$T/out.txt"; fi
     [ -f "$D/fog.$f.txt" ] && diag "$D/fog.$f.txt"

@@ -1,8 +1,11 @@
 # tests/blender_light.sh: Cycles renders lit fog (single scattering) for
 # fogpipe to match.
-#   blender -b --factory-startup -noaudio -P fogpipe_camera.py -P tests/blender/light_truth.py \
+#   blender -b --factory-startup -noaudio -P fogpipe_blender.py -P tests/blender/light_truth.py \
 #     -P tests/blender/light_scene.py -- OUTDIR SAMPLES PROFILE [map=768] [clip=1e-4] \
-#     [lights=sun,point,spot] [last=3]
+#     [lights=sun,point,spot] [last=3] [shadow=PATH]
+# shadow=PATH: the plate's rig names PATH (from OUTDIR; e.g. the script's
+# own map, sunmap.0001.exr) as the sun's shadow map of every frame (the
+# add-on's static map setting), so fogpipe finds it with no flag.
 # The scene (Z up, meters): a ground (z = 0), a wall 4 m high along x at
 # y = 5 with four vertical slits 0.5 m wide, three thin pillars (0.25 and
 # 0.35 m square, 3.5 m high) in the slits' shafts, a low sun behind the
@@ -17,8 +20,9 @@
 # --height Y0,H profile (1 below Y0, exp(-(z - Y0)/H) above it) of the
 # shading point's z ("homog": homogeneous).  Every surface is purely
 # emissive (known colors: the plate is exact and noiseless); the world is
-# black.  Cycles renders, with the add-on (-P fogpipe_camera.py: the
-# camera in every frame's Note):
+# black.  Cycles renders, with the add-on (-P fogpipe_blender.py: the
+# camera and the rig, the lights, up axis and clip start, in every frame's
+# header):
 #   OUTDIR/plate.####.exr   frames 1-3, no fog, 1 sample: the plate
 #                           (MultiLayer, Z pass);
 #   OUTDIR/trans.####.exr   the plate through the fog: absorption SIGMA
@@ -282,7 +286,12 @@ def surfaces(strength):
 # The plate: no fog, one sample (emission only: exact).
 fog.hide_render = True
 c.samples = 1
+if "shadow" in opt:
+    fs = scene.fogpipe
+    fs.shadow_maps, fs.shadow_static, fs.shadow_path = True, True, opt["shadow"]
 render("plate", fmt='OPEN_EXR_MULTILAYER')
+if "shadow" in opt:
+    scene.fogpipe.shadow_maps = False
 # Cycles' fog in two parts that add up to it (light is additive): the
 # plate seen through the fog, and the fog's in-scattered light.
 # The plate through the fog: absorption only (SIGMA, black), no light,
