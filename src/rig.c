@@ -18,6 +18,7 @@ void fp_rig_free(fp_rig_t *r)
     free(r->shadow);
     free(r->lights);
     free(r->look);
+    free(r->cut);
     memset(r, 0, sizeof *r);
 }
 
@@ -58,7 +59,11 @@ int fp_rig_merge(fp_rig_t *dst, const fp_rig_t *over)
         dst->lights = l;
         dst->nlights = over->nlights;
         dst->has_lights = 1;
+        free(dst->cut);
+        dst->cut = NULL;
     }
+    if (over->cut && !over->has_lights && !dst->cut && dup_into(&dst->cut, over->cut))
+        return FP_ERR;
     dst->any |= over->any;
     return FP_OK;
 }
@@ -352,10 +357,16 @@ int fp_rig_from_frame(const fp_frame_info_t *info, const char *where_file, long 
         if ((rc = fp_rig_parse_text(a->text, what, out, &declared, &complete)))
             return rc;
         if (!complete && !(a->rig && strstr(a->rig, "fogpipe-rig"))) {
-            rc = fp_error("%s: frame %ld: the rig says %d lights but carries %d and there is no "
-                          "fogpipeRig attribute (expected the whole rig there when the text is "
-                          "cut off)", where_file, frame, declared, out->nlights);
-            goto fail;
+            /* An error only if the lights are used: --lights none, or
+             * flags for both the sun and the local lights, need none. */
+            char msg[800];
+            snprintf(msg, sizeof msg, "%.400s: frame %ld: the rig says %d lights but carries %d "
+                     "and there is no fogpipeRig attribute (expected the whole rig there when "
+                     "the text is cut off)", where_file, frame, declared, out->nlights);
+            if (!(out->cut = strdup(msg))) {
+                rc = fp_error("out of memory");
+                goto fail;
+            }
         }
     }
     if (a->rig) {

@@ -57,6 +57,8 @@ typedef struct fp_rig_t {
     char *look;                /* "fogpipe-look 1 name=value ..." or NULL */
     char look_from[300];       /* where the look came from, for messages */
     int any;                   /* something was given */
+    char *cut;                 /* the lights' text was cut off with no fogpipeRig: the
+                                  error, raised only if the lights are used (fp_rig_apply) */
 } fp_rig_t;
 
 void fp_rig_free(fp_rig_t *r);

@@ -235,6 +235,11 @@ int fp_rig_apply(const fp_params_t *base, const fp_rig_t *rig, const char *where
     }
     if (rig->has_clip && !fp_options_given(base, "clip-start"))
         q->camera.clip_start = rig->clip;
+    if (rig->cut && !none &&
+        !(fp_options_given(base, "light") &&
+          (fp_options_given(base, "sun") || fp_options_given(base, "sun-color") ||
+           fp_options_given(base, "sun-intensity"))))
+        return fp_error("%s", rig->cut);
     if (none || !rig->has_lights)
         goto shadow;
     int sun_flags = fp_options_given(base, "sun") || fp_options_given(base, "sun-color") ||

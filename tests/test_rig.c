@@ -170,7 +170,13 @@ static void test_frame_attributes(void **state)
     assert_int_equal(r.nlights, 2);
     fp_rig_free(&r);
     set_attr(&a->rig, NULL);
-    assert_int_not_equal(fp_rig_from_frame(&info, "f.exr", 3, &r), FP_OK);
+    /* Without it the cut is kept, an error only where the lights are used
+     * (fp_rig_apply: test_precedence). */
+    assert_int_equal(fp_rig_from_frame(&info, "f.exr", 3, &r), FP_OK);
+    assert_non_null(r.cut);
+    assert_non_null(strstr(r.cut, "f.exr: frame 3: the rig says 12 lights but carries 1 and "
+                                  "there is no fogpipeRig attribute"));
+    fp_rig_free(&r);
     set_attr(&a->text, NULL);
     /* fogpipeRig cut off itself, wrong version, wrong up, wrong clip, a
      * typed attribute of the wrong type. */
@@ -403,6 +409,21 @@ static void test_precedence(void **state)
     p = base_params(NULL);
     assert_int_equal(fp_rig_apply(&p, &r, "a.exr", 1, &q2), FP_OK);
     assert_true(fp_rig_light_key(&q) != fp_rig_light_key(&q2));
+    fp_rig_params_release(&q2);
+    fp_options_free(&p);
+    /* A cut-off rig: an error where its lights are used, none with
+     * --lights none, or with both --light and --sun. */
+    r.cut = strdup("a.exr: frame 1: the rig says 9 lights but carries 4");
+    p = base_params(NULL);
+    assert_int_not_equal(fp_rig_apply(&p, &r, "a.exr", 1, &q2), FP_OK);
+    fp_rig_params_release(&q2);
+    fp_options_free(&p);
+    p = base_params(none);
+    assert_int_equal(fp_rig_apply(&p, &r, "a.exr", 1, &q2), FP_OK);
+    fp_rig_params_release(&q2);
+    fp_options_free(&p);
+    p = base_params(flags);
+    assert_int_equal(fp_rig_apply(&p, &r, "a.exr", 1, &q2), FP_OK);
     fp_rig_params_release(&q2);
     fp_options_free(&p);
     fp_rig_free(&r);

@@ -306,6 +306,17 @@ def fogpipe_frame(scene, depsgraph=None):
         r.stamp_note_text = note
 
 
+def frame_strings(scene):
+    """The current frame's whole rig and look as fogpipeRig / fogpipeLook."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    lights = rig_lights(depsgraph)
+    out = {RIG_ATTR: " ".join([rig_head(scene, depsgraph, len(lights))] + lights)}
+    s = scene.fogpipe
+    if s.use_look:
+        out[LOOK_ATTR] = look_text(s)
+    return out
+
+
 # ---------------------------------------------------------------- EXR header
 
 class ExrError(Exception):
@@ -805,8 +816,15 @@ class FOGPIPE_OT_preview(bpy.types.Operator):
         try:   # the Render Result with its passes and stamp, exactly
             im.file_format, im.color_depth = 'OPEN_EXR_MULTILAYER', '32'
             rr.save_render(src, scene=scene)
+            # save_render runs no write handler: the whole rig and look go
+            # into the file here, as after a frame Blender writes.
+            exr_set_strings(src, frame_strings(scene))
         except (AttributeError, RuntimeError):   # none, or nothing rendered
             pass
+        except (ExrError, OSError) as e:
+            self.report({'ERROR'}, "fogpipe: %s: cannot add the rig to the Render Result: %s"
+                        % (src, e))
+            return {'CANCELLED'}
         finally:
             im.file_format, im.color_depth = fmt, depth
         if not os.path.exists(src):
