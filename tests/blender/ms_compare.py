@@ -14,14 +14,19 @@ sky: the means of single (S1) and multiple (SM = total - single) for
 both, fogpipe/Cycles - 1, and the noise of that ratio (two seeds each).
 Red channel only (the scene is white)."""
 import math
+import os
 import subprocess
 import sys
+import tempfile
 
 
 def channels(path, names):
     """The named channels of PATH as lists, row-major (oiiotool --dumpdata)."""
-    args = ["oiiotool", path, "--ch", ",".join(names), "--dumpdata"]
-    out = subprocess.run(args, check=True, capture_output=True, text=True).stdout
+    with tempfile.TemporaryDirectory() as tmp:
+        cut = os.path.join(tmp, "ch.exr")
+        subprocess.run(["oiiotool", path, "--ch", ",".join(names), "-o", cut], check=True)
+        out = subprocess.run(["oiiotool", "--dumpdata", cut], check=True, capture_output=True,
+                             text=True).stdout
     cols = [[] for _ in names]
     for line in out.splitlines():
         line = line.strip()
@@ -47,8 +52,9 @@ def main():
         raise SystemExit(__doc__)
     ca, cb, f1a, f1b, fna, fnb = sys.argv[1:]
     names = ["ViewLayer.VolumeDir.R", "ViewLayer.VolumeInd.R", "ViewLayer.Depth.Z"]
-    dA, iA, z = channels(ca, names)
-    dB, iB, _ = channels(cb, names)
+    # One channel at a time: OpenEXR stores channels sorted by name.
+    dA, iA, z = (channels(ca, [c])[0] for c in names)
+    dB, iB = (channels(cb, [c])[0] for c in names[:2])
     fp = [channels(p, [first(p)])[0] for p in (f1a, f1b, fna, fnb)]
     n = len(z)
     if any(len(c) != n for c in (dA, iA, dB, iB) + tuple(fp)):
