@@ -2,7 +2,7 @@
 """Issue 28: fogpipe's reference against Cycles' single and multiple
 scattering (doc/notes/multiple-scattering.md).
 
-  ms_compare.py CYC_A.exr CYC_B.exr FP1_A.exr FP1_B.exr FPN_A.exr FPN_B.exr
+  ms_compare.py CYC_A.exr CYC_B.exr FP1_A.exr FP1_B.exr FPN_A.exr FPN_B.exr [MAXBIAS]
 
 CYC_*: tests/blender/ms_scene.py's renders (two seeds), MultiLayer with
 ViewLayer.VolumeDir (single scattering), ViewLayer.VolumeInd (the rest)
@@ -12,7 +12,9 @@ fogpipe images' first channel is the fog's light (the plate is black).
 Prints, over all pixels, over the geometry (Cycles' depth finite) and the
 sky: the means of single (S1) and multiple (SM = total - single) for
 both, fogpipe/Cycles - 1, and the noise of that ratio (two seeds each).
-Red channel only (the scene is white)."""
+Red channel only (the scene is white).  With MAXBIAS: exits 1 (a MISS
+line) when, over all pixels, single or multiple differ by more than
+max(MAXBIAS, 3 x the noise) (relative)."""
 import math
 import os
 import subprocess
@@ -48,9 +50,11 @@ def first(path):
 
 
 def main():
-    if len(sys.argv) != 7:
+    if len(sys.argv) not in (7, 8):
         raise SystemExit(__doc__)
-    ca, cb, f1a, f1b, fna, fnb = sys.argv[1:]
+    ca, cb, f1a, f1b, fna, fnb = sys.argv[1:7]
+    maxbias = float(sys.argv[7]) if len(sys.argv) == 8 else None
+    bad = 0
     names = ["ViewLayer.VolumeDir.R", "ViewLayer.VolumeInd.R", "ViewLayer.Depth.Z"]
     # One channel at a time: OpenEXR stores channels sorted by name.
     dA, iA, z = (channels(ca, [c])[0] for c in names)
@@ -87,6 +91,11 @@ def main():
             noise = math.hypot(sc / mc, sf / mc) if mf > 0 else float("nan")
             print("%-8s %-8s pixels %5d  cycles %.6g  fogpipe %.6g  fogpipe/cycles-1 %+.4f "
                   "(noise %.4f)" % (label, part, len(idx), mc, mf, rel, noise))
+            if maxbias is not None and label == "all" and not abs(rel) <= max(maxbias, 3 * noise):
+                print("MISS %s scattering: fogpipe/cycles-1 %+.4f, allowed %.4f" %
+                      (part, rel, max(maxbias, 3 * noise)))
+                bad = 1
+    sys.exit(bad)
 
 
 main()

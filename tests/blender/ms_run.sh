@@ -8,7 +8,8 @@
 # from the plate, the medium from OUTDIR/scene.txt, FP_EXTRA added), and
 # prints tests/blender/ms_compare.py's table.  FOGPIPE, BLENDER: the
 # programs (default ./fogpipe, blender); FP_SKIP_CYCLES=1 reuses OUTDIR's
-# renders.  Everything runs under nice -n 19.
+# renders; FP_MS_MAXBIAS: ms_compare.py's pass/fail bound (exit status).
+# Everything runs under nice -n 19.
 set -e
 out=$1 cs=$2 spp=$3
 shift 3
@@ -35,4 +36,5 @@ for b in 0 "$n"; do
   done
 done
 python3 "$src/tests/blender/ms_compare.py" "$out/ms1.0001.exr" "$out/ms2.0001.exr" \
-  "$out/fp0-1.0001.exr" "$out/fp0-2.0001.exr" "$out/fp$n-1.0001.exr" "$out/fp$n-2.0001.exr"
+  "$out/fp0-1.0001.exr" "$out/fp0-2.0001.exr" "$out/fp$n-1.0001.exr" "$out/fp$n-2.0001.exr" \
+  ${FP_MS_MAXBIAS:-}

@@ -178,7 +178,7 @@ vl.cycles.use_pass_volume_indirect = True
 
 with open(os.path.join(outdir, "scene.txt"), "w") as f:
     f.write("--density %.9g --albedo 1 --phase iso %s --fog-box %s --fog-color 0,0,0\n"
-            % (SIGMA, "--height %g,%g" % (Y0, H) if PROFILE == "height" else "",
+            % (SIGMA, "--height %g,%g" % (Y0, H) if PROFILE == "height" else "--height 0,inf",
                ",".join("%.9g" % v for v in BOX)))
 
 
