@@ -412,10 +412,10 @@ static int check_params(const fp_params_t *p)
  * (the smaller side) in scene units; 0 without a map, bounces or
  * --ref-geometry. */
 static int solid_setup(const fp_params_t *p, const fp_scatter_data_t *sd, const fp_view_t *v,
-                       fp_reference_grid_t *g)
+                       const float *depth, fp_reference_grid_t *g)
 {
     g->rp[FP_RP_SOLID] = 0;
-    if (!sd || !v || p->reference.bounces < 1 || !p->reference.geometry)
+    if (!sd || !v || !depth || p->reference.bounces < 1 || !p->reference.geometry)
         return FP_OK;
     int mode = (int)sd->lt[FP_LT_SHADOWS];
     if (mode != FP_SHADOWS_MAP && mode != FP_SHADOWS_MAP_SCREEN)
@@ -446,7 +446,7 @@ static int setup_grid(const fp_params_t *p, const fp_scatter_data_t *sd,
     g->rp[FP_RP_BOUNCES] = p->reference.bounces;
     g->rp[FP_RP_CONTROL] = o->control != 0;
     g->rp[FP_RP_STRATIFY] = o->stratify != 0;
-    return solid_setup(p, sd, v, g);
+    return solid_setup(p, sd, v, depth, g);
 }
 
 /* Means and standard errors from sums over n samples. */
