@@ -25,6 +25,11 @@ const fp_option_t fp_reference_options[] = {
       "--integrator reference: scattering events inside the fog after the first, each with "
       "the sun, the lights and the ambient light (0: single scattering, the model the "
       "deterministic integrator computes)", NULL, 0 },
+    { "ref-geometry", 0, FP_OPT_INT, RF(geometry), 0, 0, "1", 0, 1, NULL, "0|1",
+      "--integrator reference with --bounces: 1: a scattered path ends (black) where it "
+      "enters what both the sun's shadow map and the depth buffer hide (the ground, a "
+      "caster's inside; needs a shadow map); 0: scattered paths cross all geometry",
+      NULL, 0 },
     FP_OPT_END
 };
 
@@ -402,6 +407,32 @@ static int check_params(const fp_params_t *p)
     return FP_OK;
 }
 
+/* The geometry of scattered paths (fp_ref_solid): the camera's inverse
+ * matrices, and the march's step, a third of the shadow map's texel
+ * (the smaller side) in scene units; 0 without a map, bounces or
+ * --ref-geometry. */
+static int solid_setup(const fp_params_t *p, const fp_scatter_data_t *sd, const fp_view_t *v,
+                       const float *depth, fp_reference_grid_t *g)
+{
+    g->rp[FP_RP_SOLID] = 0;
+    if (!sd || !v || !depth || p->reference.bounces < 1 || !p->reference.geometry)
+        return FP_OK;
+    int mode = (int)sd->lt[FP_LT_SHADOWS];
+    if (mode != FP_SHADOWS_MAP && mode != FP_SHADOWS_MAP_SCREEN)
+        return FP_OK;
+    if (fp_mat3_inverse(v->m, g->rp + FP_RP_CAM_INV) ||
+        fp_mat3_inverse(v->h, g->rp + FP_RP_NDC_INV))
+        return fp_error("reference: the camera's matrices are singular");
+    const double *m = sd->lt + FP_LT_SM_NDC;
+    double gu = sd->lt[FP_LT_SM_W] * sqrt(m[0] * m[0] + m[4] * m[4] + m[8] * m[8]);
+    double gv = sd->lt[FP_LT_SM_H] * sqrt(m[1] * m[1] + m[5] * m[5] + m[9] * m[9]);
+    double texel = 1 / fmax(gu, gv);
+    if (!(texel > 0) || !isfinite(texel))
+        return fp_error("reference: the shadow map has no texel size");
+    g->rp[FP_RP_SOLID] = texel / 3;
+    return FP_OK;
+}
+
 static int setup_grid(const fp_params_t *p, const fp_scatter_data_t *sd,
                       const fp_integrate_data_t *fog, const fp_view_t *v, const float *depth,
                       const fp_reference_opts_t *o, fp_reference_grid_t *g)
@@ -415,7 +446,7 @@ static int setup_grid(const fp_params_t *p, const fp_scatter_data_t *sd,
     g->rp[FP_RP_BOUNCES] = p->reference.bounces;
     g->rp[FP_RP_CONTROL] = o->control != 0;
     g->rp[FP_RP_STRATIFY] = o->stratify != 0;
-    return FP_OK;
+    return solid_setup(p, sd, v, depth, g);
 }
 
 /* Means and standard errors from sums over n samples. */

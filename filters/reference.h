@@ -25,7 +25,7 @@
 #include "params.h"
 #include "scatter.h"
 
-#define FP_RP_COUNT_ 16       /* kernels/reference_core.h FP_RP_COUNT */
+#define FP_RP_COUNT_ 40       /* kernels/reference_core.h FP_RP_COUNT */
 #define FP_REFERENCE_GRID 32  /* grid columns along each axis of a square box */
 
 extern const fp_option_t fp_reference_options[];

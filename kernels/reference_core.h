@@ -71,7 +71,11 @@
 #define FP_RP_CONTROL 12    /* 1: decomposition and residual ratio tracking with the
                                control c; 0: plain delta and ratio tracking */
 #define FP_RP_STRATIFY 13   /* 1: first free flight from the rotated (0,2)-sequence */
-#define FP_RP_COUNT 16
+#define FP_RP_SOLID 14      /* step of the march for the geometry along scattered
+                               paths, scene units (0: paths cross all geometry) */
+#define FP_RP_CAM_INV 16    /* 9: camera vector = CAM_INV (fog point - camera) */
+#define FP_RP_NDC_INV 25    /* 9: NDC (homogeneous) = NDC_INV (x/z, y/z, 1) */
+#define FP_RP_COUNT 40
 
 /* Relative margin of the majorants computed on the fly: float rounding of
  * sigma_t must not step over them. */
@@ -674,6 +678,78 @@ FP_FN void fp_ref_vertex(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
     }
 }
 
+/* The geometry the reference assumes beyond what the camera sees: a point
+ * is solid when both the sun's map and the depth buffer hide it (behind
+ * what the map's texel holds, and behind the scene's z at the pixel it
+ * projects to); where either does not see it (outside the map or the
+ * frame, behind the camera) it is fog.  So the ground and what stands on
+ * it are solid to the depth of what both views hide (the ground's
+ * underside, a wall's inside), and the fog in a caster's shadow, seen by
+ * the camera, stays fog.  Without a shadow map nothing is solid. */
+FP_FN int fp_ref_solid(FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *smap,
+                       FP_CONSTANT const float *view, FP_GLOBAL const float *depth, int width,
+                       int height, FP_CONSTANT const fp_real *rp, fp_real x, fp_real y, fp_real z)
+{
+    int mode = (int)lt[FP_LT_SHADOWS];
+    if (mode != FP_SHADOWS_MAP && mode != FP_SHADOWS_MAP_SCREEN)
+        return 0;
+    FP_CONSTANT const fp_real *m = lt + FP_LT_SM_NDC;
+    FP_CONSTANT const fp_real *cz = lt + FP_LT_SM_Z;
+    int W = (int)lt[FP_LT_SM_W], H = (int)lt[FP_LT_SM_H];
+    fp_real u = (x * m[0] + y * m[4] + z * m[8] + m[12]) * W;
+    fp_real v = (x * m[1] + y * m[5] + z * m[9] + m[13]) * H;
+    if (!(u >= 0 && v >= 0 && u < W && v < H))
+        return 0;
+    fp_real pz = x * cz[0] + y * cz[1] + z * cz[2] + cz[3];
+    int i = (int)floor(u), j = (int)floor(v);
+    i = i > W - 1 ? W - 1 : i;
+    j = j > H - 1 ? H - 1 : j;
+    if (pz <= smap[j * W + i])
+        return 0;
+    /* Hidden from the sun: and from the camera? */
+    FP_CONSTANT const fp_real *ci = rp + FP_RP_CAM_INV, *ni = rp + FP_RP_NDC_INV;
+    fp_real px = x - view[0], py = y - view[1], pzz = z - view[2];
+    fp_real c0 = ci[0] * px + ci[1] * py + ci[2] * pzz;
+    fp_real c1 = ci[3] * px + ci[4] * py + ci[5] * pzz;
+    fp_real c2 = ci[6] * px + ci[7] * py + ci[8] * pzz;
+    if (!(c2 > 0))
+        return 0;
+    if (view[FP_VIEW_ORTHO] == 0) {
+        c0 /= c2;
+        c1 /= c2;
+    }
+    fp_real nw = ni[6] * c0 + ni[7] * c1 + ni[8];
+    if (!(nw != 0))
+        return 0;
+    fp_real nx = (ni[0] * c0 + ni[1] * c1 + ni[2]) / nw;
+    fp_real ny = (ni[3] * c0 + ni[4] * c1 + ni[5]) / nw;
+    fp_real fx = floor(nx / view[FP_VIEW_NDC_SCALE] - view[FP_VIEW_NDC_OFFSET] + (fp_real)0.5);
+    fp_real fy = floor(ny / view[FP_VIEW_NDC_SCALE + 1] - view[FP_VIEW_NDC_OFFSET + 1] +
+                       (fp_real)0.5);
+    if (!(fx >= 0 && fy >= 0 && fx < width && fy < height))
+        return 0;
+    return c2 > fp_scene_z(view, depth, width, (int)fx, (int)fy);
+}
+
+/* Whether o + s d meets the solid for s in (0, t1]: marched in steps of
+ * FP_RP_SOLID from a random offset, and at t1 itself. */
+FP_FN int fp_ref_blocked(FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *smap,
+                         FP_CONSTANT const float *view, FP_GLOBAL const float *depth, int width,
+                         int height, FP_CONSTANT const fp_real *rp, fp_real ox, fp_real oy,
+                         fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real t1,
+                         fp_rng_t *rng)
+{
+    fp_real step = rp[FP_RP_SOLID];
+    if (!(step > 0))
+        return 0;
+    for (fp_real s = step * FP_RNG_NEXT(rng); s < t1; s += step)
+        if (fp_ref_solid(lt, smap, view, depth, width, height, rp, ox + s * dx, oy + s * dy,
+                         oz + s * dz))
+            return 1;
+    return fp_ref_solid(lt, smap, view, depth, width, height, rp, ox + t1 * dx, oy + t1 * dy,
+                        oz + t1 * dz);
+}
+
 /* One sample of a view ray o + t d, t in [0, len] (len INF: sky): adds
  * the in-scattered S (3) and returns the transmittance estimate.
  * Local lights along the view ray by two strategies, combined by multiple
@@ -749,6 +825,10 @@ FP_FN fp_real fp_ref_sample(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         fp_real tc;
         if (!fp_ref_free_flight(fp, lvi, lvf, coef, rp, grid, px, py, pz, dx, dy, dz, 0, tend, &rng,
                                 u0, u1, &tc))
+            break;
+        /* A scattered path ends on the geometry it meets (black). */
+        if (j > 0 && fp_ref_blocked(lt, smap, view, depth, width, height, rp, px, py, pz, dx, dy,
+                                    dz, tc, &rng))
             break;
         px += tc * dx;
         py += tc * dy;

@@ -184,6 +184,7 @@ typedef struct fp_preview_params_t {  /* filters/preview.c */
 typedef struct fp_reference_params_t {
     int spp;              /* samples per pixel */
     int bounces;          /* scattering events after the first (0: single scattering) */
+    int geometry;         /* 1: scattered paths end where the map and the depth hide both */
 } fp_reference_params_t;
 
 /* Fog buffers (filters/buffers.c): depth-aware bilateral blur of the fog
