@@ -17,7 +17,7 @@
 #include "reference.h"
 #include "options.h"
 #include "seq.h"
-#include "rig.h"
+#include "rig_apply.h"
 
 #include <errno.h>
 #include <math.h>
@@ -106,7 +106,7 @@ const fp_option_t fp_run_options[] = {
 typedef struct run_t {
     fp_params_t *p;
     /* The frame's parameters (the calling thread's, process_frame): p with
-     * the frame's rig applied (src/rig.h); p itself when it has none. */
+     * the frame's rig applied (src/scene/rig.h); p itself when it has none. */
     fp_params_t *fp;
     fp_params_t fq;                  /* what fp points to with a rig */
     fp_rig_file_t *rigfile;          /* --rig FILE */
@@ -125,7 +125,7 @@ typedef struct run_t {
     int buffers;
     fp_fogmap_stage_t fogmap;
     int use_cl;
-    /* The frame loop (src/frameloop.h).  The reader and writer threads only
+    /* The frame loop (lib/frameloop.h).  The reader and writer threads only
      * read run_t (p, sel, wopts and what follows); fog, cl, icl and fogmap
      * belong to the calling thread, which runs process_frame. */
     const fp_frame_list_t *frames;   /* file input: the frames of the run */
@@ -823,7 +823,7 @@ static int run_stream_input(run_t *r, const fp_frame_list_t *labels)
     return run_loop(r, next_stream, labels ? (long)labels->count : 0);
 }
 
-/* --rig FILE, the run's up axis and look (src/rig.h). */
+/* --rig FILE, the run's up axis and look (src/scene/rig.h). */
 static int rig_setup(run_t *r)
 {
     return fp_rig_run_setup(r->p, &r->rigfile, &r->has_rig);
@@ -961,7 +961,7 @@ int fp_pipeline_run(fp_params_t *p)
         return fp_usage_error("--skip-existing needs output files (-o FILE|PATTERN), not a "
                               "stream on stdout");
     /* Before the libraries start threads (OpenColorIO, the OpenCL driver):
-     * they inherit the blocked signals (src/frameloop.h). */
+     * they inherit the blocked signals (lib/frameloop.h). */
     if (rc == FP_OK && p->run.catch_signals)
         rc = fp_loop_signals_start();
     /* Color spaces, display, view and preview names: checked before any

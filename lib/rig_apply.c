@@ -1,8 +1,8 @@
-/* fogpipe: the rig applied to a frame's parameters (src/rig.h), its
+/* fogpipe: the rig applied to a frame's parameters (src/scene/rig.h, lib/rig_apply.h), its
  * options, and what --print-camera says of it. */
-#include "rig.h"
+#include "rig_apply.h"
 #include "fp.h"
-#include "options.h"
+#include "options_all.h"
 #include "scatter.h"
 #include "seq.h"
 
