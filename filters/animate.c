@@ -1,5 +1,5 @@
 #include "animate.h"
-#include "fogmap.h"
+#include "fogmap_image.h"
 #include "fp.h"
 #include "oiio_bridge.h"
 #include "options.h"
