@@ -1,5 +1,5 @@
 #include "animate.h"
-#include "fogmap.h"
+#include "fogmap_image.h"
 #include "fp.h"
 #include "oiio_bridge.h"
 #include "options.h"
@@ -98,7 +98,7 @@ double fp_animate_time(const fp_params_t *p, long frame)
 void fp_animate_wind(const fp_params_t *p, double w[3])
 {
     /* Fog space is world space with up along y; with --up z, fog z is
-     * -world y (src/camera.c fp_world_to_fog). */
+     * -world y (src/scene/camera.c fp_world_to_fog). */
     w[0] = p->anim.wind[0];
     w[1] = 0;
     w[2] = p->camera.up == FP_UP_Z ? -p->anim.wind[1] : p->anim.wind[1];

@@ -7,6 +7,7 @@
 #define FP_FOGMAP_H
 
 #include "clrt.h"
+#include "fogmap_image.h"
 #include "integrate.h"
 #include "params.h"
 #include "wavelet.h"
@@ -37,19 +38,6 @@ typedef struct fp_fogmap_stage_t {
  * (C reference). */
 int fp_fogmap_commit(const fp_params_t *p, fp_cl_t *cl, fp_fogmap_stage_t *s,
                      fp_integrate_data_t *d, int *active);
-
-/* Negative fogmap values (noise often dips below 0) set to 0, as an offline
- * renderer clamps density, with one warning: how many, the lowest. */
-void fp_fogmap_clamp_negative(const char *name, float *img, int w, int h);
-
-/* The fogmap's values are finite, >= 0 and small enough that their optical
- * depth stays meaningful in single precision (one error line otherwise,
- * naming the pixel and the figures); `od_scale` from fp_fogmap_od_scale. */
-int fp_fogmap_check_values(const char *name, const float *img, int w, int h, double od_scale);
-
-/* Optical depth across one fogmap pixel (w x h) per unit of fogmap value:
- * --density times the pixel's shorter side in scene units. */
-double fp_fogmap_od_scale(const fp_params_t *p, int w, int h);
 
 /* The same from pixels in memory (w x h, row 0 at the fogmap's first row):
  * what fp_fogmap_commit does after loading, without animation. */

@@ -1,5 +1,5 @@
 /* fogpipe kernels: shared helpers (view rays, layout of the view buffer).
- * The layout matches fp_view_pack() in src/camera.c. */
+ * The layout matches fp_view_pack() in src/scene/camera.c. */
 #ifndef FP_COMMON_H
 #define FP_COMMON_H
 
@@ -10,7 +10,7 @@
 #define FP_DEPTH_INVERSE 2
 
 /* Sky: inf, NaN, negative, >= 1e10, 0 for inverse depth, beyond far
- * (fp_view_is_sky in src/camera.c). */
+ * (fp_view_is_sky in src/scene/camera.c). */
 inline int fp_is_sky(__constant const float *view, float depth)
 {
     if (isnan(depth) || depth < 0.0f)

@@ -8,7 +8,7 @@
  *   L(O) = tau(O,P) L(P) + int tau(O,u) sigma_s(u) [ L_amb
  *          + sum_k E_k(u) p(theta_k) V_k(u) tau_k(u) ] du,
  *   sigma_s = albedo sigma_t.
- * Everything here is in fog space (+y up; src/camera.h). */
+ * Everything here is in fog space (+y up; src/scene/camera.h). */
 #ifndef FP_LIGHT_CORE_H
 #define FP_LIGHT_CORE_H
 

@@ -1,5 +1,5 @@
 /* fogpipe kernels: layout of the packed view buffer (fp_view_pack() in
- * src/camera.c), for the OpenCL kernels and the C versions of the shared
+ * src/scene/camera.c), for the OpenCL kernels and the C versions of the shared
  * kernel code alike. */
 #ifndef FP_VIEW_LAYOUT_H
 #define FP_VIEW_LAYOUT_H

@@ -11,9 +11,9 @@ IN="$S/scene.0003.exr"
 OPTS="--density 0.05 --height 0,4 --fog-color 0.7,0.72,0.75"
 
 check "the program includes only fogpipe.h (and system headers)" sh -c '
-  ! grep -h "^#include \"" "$1"/src/cli/*.c | grep -v "^#include \"fogpipe.h\"$"' sh "$FP_SRCDIR"
+  ! grep -h "^#include \"" "$1"/cli/*.c | grep -v "^#include \"fogpipe.h\"$"' sh "$FP_SRCDIR"
 check "nothing in the library includes the program or the Python module" sh -c '
-  ! grep -rlE "#include \"(cli/|\.\./cli|python)" "$1/src" "$1/filters" "$1/kernels"' sh "$FP_SRCDIR"
+  ! grep -rlE "#include \"(cli/|\.\./cli|python)" "$1/src" "$1/filters" "$1/kernels" "$1/lib"' sh "$FP_SRCDIR"
 
 "$FP_BUILDDIR/tests/frame_raw" dump "$IN" "$T/frame.bin"
 # shellcheck disable=SC2086

@@ -110,7 +110,7 @@ trap 'rm -rf "$tmp"' EXIT
     awk '{ for (i = 1; i < NF; i += 2) t[$i] = $(i + 1) / 8
            printf "| %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", t["read"], t["decode"], t["fog"],
                   t["composite"], t["encode"], t["write"] }'
-  # The EXR ZIP codec (src/exr_zip.c) against OpenEXR's zlib, on the frames
+  # The EXR ZIP codec (src/exr/exr_zip.c) against OpenEXR's zlib, on the frames
   # of this section as read and as fogged.
   if [ -n "${FP_BENCH_ZIP:-}" ]; then
     echo

@@ -14,7 +14,7 @@
 #include "fogmap.h"
 #include "fp.h"
 #include "integrate.h"
-#include "options.h"
+#include "options_all.h"
 
 #include "fog_core.h"
 

@@ -15,7 +15,7 @@
 #include "fogmap.h"
 #include "fp.h"
 #include "integrate.h"
-#include "options.h"
+#include "options_all.h"
 #include "scatter.h"
 
 #include "bench_util.h"

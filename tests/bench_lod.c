@@ -35,7 +35,7 @@ static long seg_count;
 #include "fp.h"
 #include "integrate.h"
 #include "oiio_bridge.h"
-#include "options.h"
+#include "options_all.h"
 #include "scatter.h"
 
 #include "bench_util.h"

@@ -1,6 +1,6 @@
 /* fogpipe benchmarks: what the bench programs share (bench_light,
  * bench_looks, bench_selfshadow, bench_fogmap, bench_lod).  Header-only; include after the
- * fogpipe headers (camera.h, exrio.h, fogmap.h, integrate.h, options.h,
+ * fogpipe headers (camera.h, exrio.h, fogmap.h, integrate.h, options_all.h,
  * scatter.h). */
 #ifndef FP_BENCH_UTIL_H
 #define FP_BENCH_UTIL_H

@@ -1,5 +1,5 @@
 /* make bench: the ZIP codec of the EXR frames, OpenEXR 3.1's own (zlib)
- * against fogpipe's (src/exr_zip.c, libdeflate), on the sample sequence's
+ * against fogpipe's (src/exr/exr_zip.c, libdeflate), on the sample sequence's
  * frames as they come in (what --no-fog writes again) and as height fog
  * leaves them (fogged frames deflate worse: the encoder's data-dependent
  * cost).  CPU time (getrusage user+sys) of one chunk thread, minimum of

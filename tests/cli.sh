@@ -216,7 +216,7 @@ if [ -n "${FP_BUILDDIR:-}" ] && env -u MAKEFLAGS -u MFLAGS -u MAKELEVEL make -s 
     "$1/opt/fp/bin/fogpipe" -v --preset night-street-lamps -i "$2" -o "$3" 2>&1 |
     grep -q "preset: $1/opt/fp/share/fogpipe/presets/night-street-lamps.preset"' \
     sh "$T/dest" "$S/scene.0001.exr" "$T/installed-preset.exr"
-  # OpenImageIO: a module loaded when first needed (src/oiio_bridge.h).
+  # OpenImageIO: a module loaded when first needed (src/bridges/oiio_bridge.h).
   check "installed: lib/fogpipe/fogpipe_oiio.so; fogpipe itself does not link OpenImageIO" sh -c '
     test -f "$1/opt/fp/lib/fogpipe/fogpipe_oiio.so" && ldd "$1/opt/fp/bin/fogpipe" > "$2/ldd.txt" &&
     ! grep -q libOpenImageIO "$2/ldd.txt"' sh "$T/dest" "$T"

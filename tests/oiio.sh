@@ -117,7 +117,7 @@ else
     skip "a C compiler to build stand-in modules"
   fi
 fi
-# One way of finding the install (src/install.h), from anywhere: `make
+# One way of finding the install (src/base/install.h), from anywhere: `make
 # install prefix=P` and `make install DESTDIR=D`, the program run from PATH
 # in another directory (before, the module was looked for in
 # <cwd>/fogpipe: dladdr's bare "fogpipe" made absolute against the working

@@ -1,4 +1,4 @@
-/* libfogpipe's public API (src/fogpipe.h) as a host uses it: misuse returns
+/* libfogpipe's public API (lib/fogpipe.h) as a host uses it: misuse returns
  * errors with messages (NULL, wrong sizes, wrong order), never a crash or a
  * print; the fog layers agree with the composite; homogeneous fog against
  * its closed form; 1000 frames without growing the heap. */

@@ -1,4 +1,4 @@
-/* libfogpipe's public API (src/fogpipe.h) misused by a host: what a call
+/* libfogpipe's public API (lib/fogpipe.h) misused by a host: what a call
  * keeps is the library's own copy, a context freed while another thread
  * is in a call on it or from inside one of its callbacks is safe, a
  * message handler that calls back into the library gets an error instead

@@ -24,7 +24,7 @@ static void norm(double v[3])
         v[i] /= l;
 }
 
-/* OpenEXR's definitions, written out independently of src/camera.c. */
+/* OpenEXR's definitions, written out independently of src/scene/camera.c. */
 static void header_camera(const double C[3], const double F0[3], double vfov, int w, int h,
                           fp_frame_info_t *info)
 {

@@ -39,7 +39,7 @@
 #include "clrt.h"
 #include "exrio.h"
 #include "fp.h"
-#include "options.h"
+#include "options_all.h"
 #include "pipeline.h"
 
 #include "buffers.h"

@@ -1,5 +1,5 @@
 /* Unit tests of the deep stage (filters/deep.h) and the deep EXR codec
- * (src/exr_deep.h): the split rule, tidying, the fog's samples against the
+ * (src/exr/exr_deep.h): the split rule, tidying, the fog's samples against the
  * fog of a ray ending at any depth (the bound), and deep images written
  * and read back in every codec deep files allow. */
 #include <setjmp.h>

@@ -1,4 +1,4 @@
-/* DWAA/DWAB in and out (src/exr_dwa.cpp): frames made by OpenEXR's C
+/* DWAA/DWAB in and out (src/exr/exr_dwa.cpp): frames made by OpenEXR's C
  * library uncompressed, turned into DWA by the bridge, read by the C path
  * (fp_exr_read_memory), written again (fp_exr_encode) and checked with the
  * C library on the bridge's uncompressed rewrite.  OpenImageIO's reading of

@@ -1,4 +1,4 @@
-/* Unit tests for exrio.h (src/exr_read.c, exr_write.c, exr_stream.c):
+/* Unit tests for exrio.h (src/exr/exr_read.c, exr_write.c, exr_stream.c):
  * EXR read/write round trips, channel selection, stream framing, chunk
  * threads and error paths.
  *

@@ -1,7 +1,7 @@
 /* The OpenImageIO bridge against hostile images and disks: a header that
  * claims a giant image is refused from the header, before any pixel is
  * allocated (peak memory stays near that of a no-op run), against the
- * host's image budget (src/fp_limits.h).  The files are made here byte by
+ * host's image budget (src/base/fp_limits.h).  The files are made here byte by
  * byte (PNG, TIFF), so that nothing else needs to write a broken image.
  * Files go to a directory under $FP_TMP (or /tmp) that is removed at the
  * end. */
@@ -44,7 +44,7 @@ static void write_bytes(const char *path, const void *bytes, size_t n)
     assert_int_equal(fclose(f), 0);
 }
 
-/* The messages `call` printed, kept (src/fp.h), as one string. */
+/* The messages `call` printed, kept (src/base/fp.h), as one string. */
 static char said[8192];
 #define SAYS(call)                                                                       \
     do {                                                                                 \

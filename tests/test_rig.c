@@ -1,4 +1,4 @@
-/* The rig (src/rig.h): the text form, typed attributes, the JSON rig file
+/* The rig (src/scene/rig.h): the text form, typed attributes, the JSON rig file
  * and its reader, precedence under the flags, the look, --frame's file
  * names, and the clip start in the fog (closed form, C and OpenCL). */
 #include <setjmp.h>
@@ -19,6 +19,7 @@
 #include "json.h"
 #include "options.h"
 #include "rig.h"
+#include "rig_apply.h"
 #include "seq.h"
 #include "testutil.h"
 

@@ -1,4 +1,4 @@
-/* fogpipe's ZIP / ZIPS codec (src/exr_zip.c: libdeflate in place of the
+/* fogpipe's ZIP / ZIPS codec (src/exr/exr_zip.c: libdeflate in place of the
  * zlib inside OpenEXR 3.1's C API) against OpenEXR's own:
  * - the byte split and predictor against OpenEXR 3.1.5's loops
  *   (internal_zip.c), and their inverse, on every length up to 600;

@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "camera.h"
-#include "options.h"
+#include "options_all.h"
 
 /* cmocka 1.1 (Debian 12) has no assert_double_equal. */
 #ifndef assert_double_equal

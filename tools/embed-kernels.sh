@@ -3,7 +3,7 @@
 #
 #   tools/embed-kernels.sh KERNEL_DIR file1.cl [file2.cl ...] > fp_kernels.c
 #
-# Each .cl file becomes one entry of fp_kernel_sources[] (see src/clrt.h),
+# Each .cl file becomes one entry of fp_kernel_sources[] (see src/cl/clrt.h),
 # named by its base name without ".cl".  Its #include "name.h" lines are
 # inlined recursively from KERNEL_DIR, each header at most once per kernel
 # source (as if every header had an include guard); #include <...> lines are

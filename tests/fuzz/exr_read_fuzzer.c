@@ -1,6 +1,6 @@
 /* libFuzzer entry point for the EXR frame reader: every input is one frame
  * held in memory, read as fogpipe reads any frame (fp_exr_read_memory:
- * the checks of src/exr_check.c, the C path, the C++ codec path for DWA
+ * the checks of src/exr/exr_check.c, the C path, the C++ codec path for DWA
  * and B44), and a frame that reads is encoded again as the writer would.
  * Nothing may crash, leak or trip a sanitizer; errors are the normal
  * outcome and their messages are dropped.

@@ -3,7 +3,6 @@
 #include "json.h"
 #include "options.h"
 #include "seq.h"
-#include "scatter.h"
 
 #include <ctype.h>
 #include <errno.h>

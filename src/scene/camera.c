@@ -414,9 +414,9 @@ static int read_chan(const char *path, long frame, double v[7])
 {
     static const char *const names[8] = { "frame", "tx", "ty", "tz", "rx", "ry", "rz",
                                           "vertical FOV" };
-    const fp_option_t *rot_opt = fp_options_find("camera-rot");
-    const fp_option_t *fov_opt = fp_options_find("vfov");
-    /* Bounded (src/textfile.h): --camera-chan /dev/zero fails instead of
+    const fp_option_t *rot_opt = fp_option_lookup(fp_camera_options, "camera-rot");
+    const fp_option_t *fov_opt = fp_option_lookup(fp_camera_options, "vfov");
+    /* Bounded (src/base/textfile.h): --camera-chan /dev/zero fails instead of
      * reading forever. */
     fp_text_t t;
     int rc = fp_text_open(&t, path, "camera file", 0);

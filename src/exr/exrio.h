@@ -29,7 +29,7 @@ typedef struct fp_exr_select_t {
 } fp_exr_select_t;
 #define FP_EXR_SELECT_INITIALIZER { NULL, NULL, 1, 1 }
 
-/* The rig (src/rig.h) as a frame's header carries it: the text form in any
+/* The rig (src/scene/rig.h) as a frame's header carries it: the text form in any
  * string attribute (Blender's stamp Note) and the typed attributes.  The
  * strings are the frame's (fp_frame_free frees them); NULL when absent. */
 typedef struct fp_rig_attrs_t {
@@ -169,7 +169,7 @@ int fp_write_file_atomic(const char *path, const void *buf, size_t size);
 /* Parse a compression name ("none", "rle", "zips", "zip", "piz", "pxr24",
  * "b44", "b44a", "dwaa", "dwab") into exr_compression_t; -1 if unknown.
  * OpenEXR 3.1's C library has no DWA codec: dwaa/dwab go through OpenEXR's
- * C++ library (src/exr_dwa.h), in and out, files and streams alike. */
+ * C++ library (src/exr/exr_dwa.h), in and out, files and streams alike. */
 int fp_exr_compression_from_name(const char *name);
 const char *fp_exr_compression_name(int compression);
 /* 1 when frames can be written with this compression (exr_compression_t),

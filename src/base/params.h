@@ -2,7 +2,7 @@
  *
  * The single source of truth for names, defaults and ranges is the option
  * table of each stage (FP_OPTIONS in its .c file); this struct only holds
- * the values.  See src/options.h. */
+ * the values.  See src/base/options.h. */
 #ifndef FP_PARAMS_H
 #define FP_PARAMS_H
 
@@ -28,7 +28,7 @@ typedef struct fp_io_params_t {
     char *device;
     int cpu;              /* C reference instead of OpenCL */
     char *preset;
-    char *rig;            /* --rig FILE: the rig as JSON (src/rig.h) */
+    char *rig;            /* --rig FILE: the rig as JSON (src/scene/rig.h) */
     int frame;            /* --frame N: a single input file's frame number */
     int quiet;
     int verbose;
@@ -138,7 +138,7 @@ typedef struct fp_light_params_t {
     char *light;          /* the last --light as given; every one parsed into lights[] */
     fp_light_t *lights;   /* num_lights of them (fp_light_append; freed by fp_options_free) */
     int num_lights, cap_lights;
-    int lights_from;      /* FP_LIGHTS_FRAME / FP_LIGHTS_NONE: the rig's lights (src/rig.h) */
+    int lights_from;      /* FP_LIGHTS_FRAME / FP_LIGHTS_NONE: the rig's lights (src/scene/rig.h) */
     char *shadow_map;     /* pattern of the sun's depth maps */
     int shadow_map_literal; /* shadow_map is one file's name (a frame's rig): no frame
                                number expanded in it */
@@ -211,7 +211,7 @@ typedef struct fp_deep_params_t {   /* filters/deep.c */
     double max_alpha;     /* fog samples split until none is more opaque */
 } fp_deep_params_t;
 
-typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
+typedef struct fp_run_params_t {    /* lib/pipeline.c, lib/frameloop.c */
     int pipeline;         /* 1: read, compute and write on three threads */
     int progress;         /* FP_PROGRESS_* */
     int catch_signals;    /* not an option: the program's SIGINT/SIGTERM handling */
@@ -219,7 +219,7 @@ typedef struct fp_run_params_t {    /* src/pipeline.c, src/frameloop.c */
     char *stats;          /* per-frame timings as JSON */
     int no_fog;           /* benchmark: read and write only (the I/O floor) */
     int io_threads;       /* threads per EXR part's chunks; 0: one per core */
-    char *max_image_pixels; /* the image budget (src/fp_limits.h); NULL: the default */
+    char *max_image_pixels; /* the image budget (src/base/fp_limits.h); NULL: the default */
 } fp_run_params_t;
 
 typedef struct fp_cmd_params_t {

@@ -28,7 +28,7 @@ extern "C" {
  * the first channel.  Only the first subimage is read.
  *
  * The image's size is checked from its header against the image budget
- * (src/fp_limits.h) before any pixel is read; the read is an error when
+ * (src/base/fp_limits.h) before any pixel is read; the read is an error when
  * OpenImageIO reports one, even with pixels (a truncated TIFF or JPEG), and
  * a PNG's chunks are checked whole (CRCs, IEND) before libpng reads it.
  *
@@ -79,9 +79,9 @@ int fp_oiio_write_preview(const char *path, const float *pixels, int width, int 
 int fp_oiio_tile_sheet(const char *const *paths, int count, int columns, int max_size,
                        const char *out_path);
 
-/* The bridge is a module (fogpipe_oiio.so, built from src/oiio_bridge.cpp
+/* The bridge is a module (fogpipe_oiio.so, built from src/bridges/oiio_bridge.cpp
  * and installed in $(pkglibdir)), loaded by the functions above
- * (src/oiio_load.c) the first time an image other than an EXR frame is
+ * (src/bridges/oiio_load.c) the first time an image other than an EXR frame is
  * read or written: OpenImageIO links some 260 libraries, whose loading
  * cost every fogpipe process 0.2-0.3 s of CPU at start-up, most of which
  * never touch anything but EXR.  The module prints through the host's
@@ -90,7 +90,7 @@ int fp_oiio_tile_sheet(const char *const *paths, int count, int columns, int max
 #define FP_OIIO_ABI 2
 typedef int (*fp_oiio_error_fn)(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 typedef void (*fp_oiio_warn_fn)(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-/* The host's fp_image_limits_check (src/fp_limits.h): the module checks
+/* The host's fp_image_limits_check (src/base/fp_limits.h): the module checks
  * every image's size from its header with it before reading any pixel, so
  * that the budget (--max-image-pixels) is the library's, one for all. */
 typedef int (*fp_oiio_limits_fn)(const char *file, long frame, const char *kind,

@@ -29,7 +29,7 @@ typedef struct fp_ocio_proc_t fp_ocio_proc_t;
  *   2. $OCIO when set and non-empty;
  *   3. fogpipe's own config (samples/ocio/config.ocio in the sources),
  *      ocio/config.ocio where fogpipe's installed files are
- *      (src/install.h: the source tree from a build tree, beside the
+ *      (src/base/install.h: the source tree from a build tree, beside the
  *      program or the library, so a relocated or DESTDIR install finds its
  *      own, then the configured $(pkgdatadir)).
  * Writes the path to `path` and what chose it ("--ocio", "$OCIO",

@@ -1,4 +1,4 @@
-/* fogpipe: the one budget for every image fogpipe reads (src/fp_limits.h). */
+/* fogpipe: the one budget for every image fogpipe reads (src/base/fp_limits.h). */
 #include "fp_limits.h"
 
 #include "fp.h"

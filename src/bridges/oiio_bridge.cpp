@@ -32,7 +32,7 @@ extern "C" {
 }
 
 // The host's fp_error and fp_warn (the module is loaded into a process
-// whose messages go where the host says: src/fp.h), set by fp_oiio_module.
+// whose messages go where the host says: src/base/fp.h), set by fp_oiio_module.
 namespace {
 fp_oiio_error_fn host_error;
 fp_oiio_warn_fn host_warn;

@@ -1,4 +1,4 @@
-/* fogpipe: where its installed files are (src/install.h). */
+/* fogpipe: where its installed files are (src/base/install.h). */
 #define _GNU_SOURCE
 #include "config.h"
 #include "install.h"

@@ -48,7 +48,7 @@ static char *attr_strdup(const exr_attribute_t *a)
     return s;
 }
 
-/* The rig's typed attributes (src/rig.h, "fogpipe rig schema"): the
+/* The rig's typed attributes (src/scene/rig.h, "fogpipe rig schema"): the
  * first of each name over the parts; the wrong type is kept as an error
  * for the rig's reader to report with the frame. */
 static int read_rig_attr(const exr_attribute_t *a, fp_rig_attrs_t *r)

@@ -1,7 +1,11 @@
 /* fogpipe: option tables (after FFmpeg's AVOption and GEGL's property
  * lists).  One table per stage declares name, type, field, default, hard
  * range and help; parsing, range checks, --help, the README reference and
- * preset files all read the tables, so there is one source of truth. */
+ * preset files all read the tables, so there is one source of truth.
+ *
+ * This header is the tables' form, which every stage uses to declare its
+ * own; the whole set of tables and what reads them (parsing, presets,
+ * looks, --help) sit above the stages, in lib/options_all.h. */
 #ifndef FP_OPTIONS_H
 #define FP_OPTIONS_H
 
@@ -47,31 +51,11 @@ typedef struct fp_option_group_t {
     const fp_option_t *options;  /* ends with a row whose name is NULL */
 } fp_option_group_t;
 
-extern const fp_option_group_t fp_option_groups[];
-
-/* Set every field to its default. */
-int fp_options_defaults(fp_params_t *p);
-/* Parse argv (after defaults): --preset FILE lines first, then the CLI,
- * which wins.  Returns FP_EUSAGE with a message on a bad option or value. */
-int fp_options_parse(int argc, char **argv, fp_params_t *p);
-/* Apply one "name" = "value" (value NULL for a flag on the CLI). `origin`
- * labels messages ("command line", "preset.fp:12"). */
-int fp_options_apply(fp_params_t *p, const char *name, const char *value,
-                     const char *origin);
-int fp_options_load_preset(fp_params_t *p, const char *path);
-/* The look a frame or a rig file carries (src/rig.h): "fogpipe-look 1
- * name=value ..." (whitespace or ';' between pairs, names as the long
- * options), applied as a preset's lines are but under the command line and
- * --preset (an option already set there, or through an alias of its field,
- * is left as it is).  Only the fog's look is taken (the Fog, Light, Fog
- * buffers and Animation groups, no file names): anything else is an error
- * naming `origin`. */
-int fp_options_apply_look(fp_params_t *p, const char *text, const char *origin);
-const fp_option_t *fp_options_find(const char *name);
+/* Whether the user set option `name` (the command line, a preset or a
+ * look; src/base/option_table.c). */
 int fp_options_given(const fp_params_t *p, const char *name);
-/* --help, generated from the tables; markdown=1 writes the README table. */
-void fp_options_print_help(FILE *out, int markdown);
-void fp_options_free(fp_params_t *p);
+/* The row named `name` of one table (ending with FP_OPT_END), or NULL. */
+const fp_option_t *fp_option_lookup(const fp_option_t *table, const char *name);
 
 #define FP_OPT_END { NULL, 0, 0, 0, 0, 0, NULL, 0, 0, NULL, NULL, NULL, NULL, 0 }
 

@@ -1,4 +1,4 @@
-#include "options.h"
+#include "options_all.h"
 #include "fp.h"
 #include "install.h"
 #include "textfile.h"
@@ -264,14 +264,6 @@ static void mark_given(fp_params_t *p, const fp_option_t *o)
         p->given[p->num_given++] = o->name;
 }
 
-int fp_options_given(const fp_params_t *p, const char *name)
-{
-    for (int i = 0; i < p->num_given; i++)
-        if (strcmp(p->given[i], name) == 0)
-            return 1;
-    return 0;
-}
-
 int fp_options_defaults(fp_params_t *p)
 {
     memset(p, 0, sizeof *p);
@@ -322,7 +314,7 @@ static char *trim(char *s)
 }
 
 /* --preset NAME (no '/', no ".preset"): presets/NAME.preset where
- * fogpipe's installed files are (src/install.h: beside the program or the
+ * fogpipe's installed files are (src/base/install.h: beside the program or the
  * library, so a moved install works; the configured directory; the source
  * tree from a build tree).  Anything else is a file name. */
 static int find_preset(const char *arg, char *path, size_t n)
@@ -352,7 +344,7 @@ int fp_options_load_preset(fp_params_t *p, const char *arg)
     free(p->io.preset);
     if (!(p->io.preset = strdup(path)))
         return fp_error("out of memory");
-    /* Bounded (src/textfile.h): --preset /dev/zero fails instead of
+    /* Bounded (src/base/textfile.h): --preset /dev/zero fails instead of
      * reading forever. */
     fp_text_t t;
     if ((rc = fp_text_open(&t, path, "preset", 1)))

@@ -1,27 +1,14 @@
-/* fogpipe: the rig applied to a frame's parameters (src/rig.h), its
+/* fogpipe: the rig applied to a frame's parameters (src/scene/rig.h, lib/rig_apply.h), its
  * options, and what --print-camera says of it. */
-#include "rig.h"
+#include "rig_apply.h"
 #include "fp.h"
-#include "options.h"
+#include "options_all.h"
 #include "scatter.h"
 #include "seq.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-#define IO(f) offsetof(fp_params_t, io.f)
-#define LI(f) offsetof(fp_params_t, light.f)
-const fp_option_t fp_rig_options[] = {
-    { "rig", 0, FP_OPT_STRING, IO(rig), 0, 0, NULL, 0, 0, NULL, "FILE",
-      "the rig as a JSON file (fogpipe rig schema 1: up, clip_start, shadow_map with # runs, "
-      "lights, per-frame \"frames\"), over what the frames carry", NULL, 0 },
-    { "lights", 0, FP_OPT_ENUM, LI(lights_from), 0, 0, "frame", 0, 0, "frame|none",
-      "frame|none",
-      "the suns, lights and shadow map the frames (or --rig) carry: used (frame) or ignored "
-      "(none); --sun, --light and --shadow-map override them either way", NULL, 0 },
-    FP_OPT_END
-};
 
 /* ------------------------------------------------------------ once a run */
 

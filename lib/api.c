@@ -1,13 +1,13 @@
 /* libfogpipe's public API (fogpipe.h) over the engine: options, the frame
  * pipeline for files and streams, sessions for frames in memory.  The only
- * file whose symbols the shared library exports (src/libfogpipe.map). */
+ * file whose symbols the shared library exports (lib/libfogpipe.map). */
 #include "fogpipe.h"
 
 #include "clrt.h"
 #include "color.h"
 #include "exrio.h"
 #include "fp.h"
-#include "options.h"
+#include "options_all.h"
 #include "pipeline.h"
 
 #include "config.h"

@@ -1,7 +1,7 @@
-/* fogpipe: the OpenImageIO bridge's functions (src/oiio_bridge.h), loading
+/* fogpipe: the OpenImageIO bridge's functions (src/bridges/oiio_bridge.h), loading
  * the module fogpipe_oiio.so the first time one is called.
  *
- * The module is looked for where src/install.h says (the build tree's
+ * The module is looked for where src/base/install.h says (the build tree's
  * .libs from the build tree, beside the installed program or library,
  * the configured $(pkglibdir)); the first that passes its checks, loads and
  * is of this build (FP_OIIO_ABI and PACKAGE_VERSION) wins. */

@@ -11,7 +11,7 @@
  *   exr_stream.c  stream framing: one EXR file at a time from a pipe;
  *   exr_check.c   an image's bytes checked against the image budget and
  *                 against its own size before anything is decoded;
- *   exr_rig.c     the rig's attributes picked up from a header (src/rig.h). */
+ *   exr_rig.c     the rig's attributes picked up from a header (src/scene/rig.h). */
 #ifndef FP_EXR_INTERNAL_H
 #define FP_EXR_INTERNAL_H
 
@@ -25,7 +25,7 @@
 
 /* Sanity limits of the file's structure against corrupt headers; the
  * image's size (pixels, axis, channels, parts) is the image budget's
- * (src/fp_limits.h), checked by fp_exr_check_image. */
+ * (src/base/fp_limits.h), checked by fp_exr_check_image. */
 #define FP_EXR_MAX_ATTR_SIZE  ((int64_t) 1 << 28)  /* one attribute value */
 #define FP_EXR_MAX_ATTRS      100000               /* attributes in one header */
 #define FP_EXR_MAX_CHUNKS     ((int64_t) 1 << 26)  /* offset table entries */
@@ -224,7 +224,7 @@ int fp_exr_lines_per_chunk(int compression);
  * resolution, which come first. */
 int64_t fp_exr_count_chunks(const fp_exr_hpart_t *sp, int64_t *level0);
 /* Check an EXR image in memory before anything is allocated for its
- * pixels: every part against the image budget (src/fp_limits.h); the file
+ * pixels: every part against the image budget (src/base/fp_limits.h); the file
  * against what its headers claim (offset tables and chunk headers fit;
  * the decoded bytes are within the codec's largest ratio times its
  * size); each chunk of the highest resolution against the bytes of its

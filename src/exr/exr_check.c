@@ -6,7 +6,7 @@
  *
  * Three questions, each answered from the header, the offset tables and
  * the chunk headers alone:
- *   - the image budget (src/fp_limits.h): pixels, axis, channels, line bytes,
+ *   - the image budget (src/base/fp_limits.h): pixels, axis, channels, line bytes,
  *     parts;
  *   - can the file hold what the header claims: the offset tables and the
  *     chunk headers must fit in it, and the decoded bytes must not exceed
