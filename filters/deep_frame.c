@@ -324,7 +324,7 @@ int fp_deep_frame(const fp_deep_fog_t *f, const fp_color_frame_t *color,
     pthread_t th[64];
     int started = 0;
     for (int t = 1; t < nt && rc == FP_OK; t++)
-        if (pthread_create(&th[t], NULL, worker, &j) == 0)
+        if (fp_thread_start(&th[t], worker, &j) == 0)
             started = t;
     if (rc == FP_OK)
         worker(&j);

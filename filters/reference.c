@@ -549,7 +549,7 @@ static int reference_c(const fp_params_t *p, const fp_scatter_data_t *sd,
     pthread_t th[64];
     int started = 0;
     for (; started < nt - 1; started++)
-        if (pthread_create(&th[started], NULL, c_entries, job))
+        if (fp_thread_start(&th[started], c_entries, job))
             break;
     c_entries(job);
     for (int k = 0; k < started; k++)

@@ -4,7 +4,6 @@
 #include "params.h"
 
 #include <math.h>
-#include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -283,13 +282,14 @@ static void describe(char *buf, size_t size, const fp_smap_report_t *r, const fp
              t->width, t->width == 1 ? "" : "s", t->width_units, t->length, t->x, t->y, where);
 }
 
-static atomic_int warned;
+/* Once a run (the context's, src/base/fp_ctx.h). */
+static const char warned = 0;
 
 void fp_shadowcheck_frame(const char *path, long frame, const float *z, int w, int h,
                           double texel_x, double texel_y, double step, const double *ndc,
                           const double *cz, int up)
 {
-    if (warned && fp_verbose <= 0)
+    if (fp_once_done(&warned) && fp_verbose <= 0)
         return;
     fp_smap_report_t r;
     if (fp_shadowcheck(z, w, h, texel_x, texel_y, step, &r)) {
@@ -312,8 +312,7 @@ void fp_shadowcheck_frame(const char *path, long frame, const float *z, int w, i
                               : r.gap.width_units < r.caster.width_units ? &r.gap : &r.caster;
     long nw, nh;
     double need = fp_shadowcheck_needed(&r, t, &nw, &nh);
-    int expect = 0;
-    if (!atomic_compare_exchange_strong(&warned, &expect, 1))
+    if (!fp_once(&warned))
         return;
     char what[400];
     describe(what, sizeof what, &r, t, z, ndc, cz, up);
@@ -326,15 +325,14 @@ void fp_shadowcheck_frame(const char *path, long frame, const float *z, int w, i
             FP_SHADOWCHECK_TEXELS);
 }
 
-static atomic_int wants_warned;
+static const char wants_warned = 0;
 
 void fp_shadowcheck_wants(const fp_params_t *p, int has_map)
 {
     const fp_light_params_t *l = &p->light;
     if (!l->wants || has_map || l->shadows != FP_SHADOWS_AUTO)
         return;
-    int expect = 0;
-    if (!atomic_compare_exchange_strong(&wants_warned, &expect, 1))
+    if (!fp_once(&wants_warned))
         return;
     const char *preset = p->io.preset ? strrchr(p->io.preset, '/') : NULL;
     preset = preset ? preset + 1 : p->io.preset ? p->io.preset : "the look";

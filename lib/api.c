@@ -30,22 +30,31 @@ struct fogpipe {
     int argc;
     int free_pending;         /* fogpipe_free from a message handler: freed at the call's end */
     fogpipe_t *next_live;
+    /* Everything a call changes is the context's (issue 27): its engine
+     * context (messages, verbosity, EXR threads, image budget, warnings
+     * given: src/base/fp_ctx.h), current on the calling thread and on the
+     * threads the call starts; its lock, so one call at a time on it and
+     * calls on other contexts at once. */
+    fp_ctx_t ctx;
+    fp_ctx_t *outer;          /* the calling thread's context before the call */
+    pthread_mutex_t lock;     /* held through a call on this context */
+    pthread_mutex_t emit_lock; /* one message at a time to the handler */
+    int pins;                 /* threads waiting for `lock` (under live_lock) */
+    int dead;                 /* freed while they waited: the last one frees it */
 };
-
-/* One call at a time in the process (fogpipe.h, Threads): the emitter and
- * fp_quiet/fp_verbose are process-wide. */
-static pthread_mutex_t api_lock = PTHREAD_MUTEX_INITIALIZER;
 
 /* The contexts made by fogpipe_new and not yet freed (under live_lock, held
  * only to look one up): a call on a freed context, or one that waited for
- * api_lock while another thread freed it, is refused without reading it. */
+ * its lock while another thread freed it, is refused without reading it.
+ * The list is the process's only state here, and guards nothing but the
+ * look-up: calls on different contexts do not wait for each other. */
 static pthread_mutex_t live_lock = PTHREAD_MUTEX_INITIALIZER;
 static fogpipe_t *live;
 
-/* The context of the call that holds api_lock on this thread, and whether
- * this thread runs a message handler (fogpipe_run's frame loop hands
- * messages on from its own threads while the caller's thread holds the
- * lock): a call from a handler is re-entry, refused (api_lock is not
+/* The context of the call that holds a context's lock on this thread, and
+ * whether this thread runs a message handler (fogpipe_run's frame loop
+ * hands messages on from its own threads while the caller's thread holds
+ * the lock): a call from a handler is re-entry, refused (the lock is not
  * recursive, and the call in progress is half done). */
 static _Thread_local fogpipe_t *in_call;
 static _Thread_local int in_handler;
@@ -73,32 +82,66 @@ static void live_add(fogpipe_t *c)
     pthread_mutex_unlock(&live_lock);
 }
 
-static void live_remove(fogpipe_t *c)
+/* Off the list; under live_lock.  1 when no thread waits for its lock
+ * (the caller frees it), else the last waiter frees it. */
+static int live_remove_locked(fogpipe_t *c)
 {
-    pthread_mutex_lock(&live_lock);
     for (fogpipe_t **l = &live; *l; l = &(*l)->next_live)
         if (*l == c) {
             *l = c->next_live;
             break;
         }
+    c->dead = 1;
+    return c->pins == 0;
+}
+
+static void destroy(fogpipe_t *c)
+{
+    pthread_mutex_destroy(&c->lock);
+    pthread_mutex_destroy(&c->emit_lock);
+    free(c);
+}
+
+/* Lock `c` for a call: FP_OK with c->lock held, or FOGPIPE_EUSAGE (nothing
+ * held) when it is not alive or was freed while this thread waited. */
+static int lock_live(fogpipe_t *c)
+{
+    pthread_mutex_lock(&live_lock);
+    const fogpipe_t *l = live;
+    while (l && l != c)
+        l = l->next_live;
+    if (!l) {
+        pthread_mutex_unlock(&live_lock);
+        return FOGPIPE_EUSAGE;
+    }
+    c->pins++;
     pthread_mutex_unlock(&live_lock);
+    pthread_mutex_lock(&c->lock);
+    pthread_mutex_lock(&live_lock);
+    int dead = c->dead, last = --c->pins == 0;
+    pthread_mutex_unlock(&live_lock);
+    if (!dead)
+        return FP_OK;
+    pthread_mutex_unlock(&c->lock);
+    if (last)
+        destroy(c);
+    return FOGPIPE_EUSAGE;
 }
 
 static const char not_live[] = "fogpipe: not a live context (freed, or not made by fogpipe_new)";
 
 /* Keep the last line that is not a warning or progress (the error a failed
  * call printed last), and hand the text to the context's handler. */
-static pthread_mutex_t emit_lock = PTHREAD_MUTEX_INITIALIZER;
-
 static void api_emit_locked(fogpipe_t *c, int kind, const char *text, size_t len);
 
 /* The frame loop's threads emit too: one message at a time, so that a
  * handler is never run on two threads at once and c->last is whole. */
 static void api_emit(void *user, int kind, const char *text, size_t len)
 {
-    pthread_mutex_lock(&emit_lock);
-    api_emit_locked(user, kind, text, len);
-    pthread_mutex_unlock(&emit_lock);
+    fogpipe_t *c = user;
+    pthread_mutex_lock(&c->emit_lock);
+    api_emit_locked(c, kind, text, len);
+    pthread_mutex_unlock(&c->emit_lock);
 }
 
 static void api_emit_locked(fogpipe_t *c, int kind, const char *text, size_t len)
@@ -138,9 +181,10 @@ static void api_emit_locked(fogpipe_t *c, int kind, const char *text, size_t len
         free(t);
 }
 
-/* Start a call on `c`: FP_OK with api_lock held, or the refusal (nothing
- * held) of a call from a message handler (its message kept in c when c
- * lives: this thread holds the lock) or on a context that is not alive. */
+/* Start a call on `c`: FP_OK with c->lock held and c's engine context the
+ * thread's current one, or the refusal (nothing held) of a call from a
+ * message handler (its message kept in c when c lives) or on a context
+ * that is not alive. */
 static int enter(fogpipe_t *c, const char *fn)
 {
     if (reentry()) {
@@ -149,15 +193,14 @@ static int enter(fogpipe_t *c, const char *fn)
                      "is not re-entrant: call it after the call in progress returns)", fn);
         return FOGPIPE_ERROR;
     }
-    pthread_mutex_lock(&api_lock);
-    if (!alive(c)) {
-        pthread_mutex_unlock(&api_lock);
+    if (lock_live(c))
         return FOGPIPE_EUSAGE;
-    }
     in_call = c;
-    fp_msg_set_emitter(api_emit, c);
-    fp_quiet = c->p.io.quiet;
-    fp_verbose = c->p.io.verbose;
+    c->outer = fp_ctx_use(&c->ctx);
+    c->ctx.emit = api_emit;
+    c->ctx.emit_user = c;
+    c->ctx.quiet = c->p.io.quiet;
+    c->ctx.verbose = c->p.io.verbose;
     c->last[0] = 0;
     return FP_OK;
 }
@@ -170,15 +213,19 @@ static void drop_session(fogpipe_t *c)
 
 static void free_argv(char **argv, int argc);
 
-/* What a context owns, with api_lock held; the caller frees `c` itself
- * after unlocking. */
-static void release(fogpipe_t *c)
+/* What a context owns, with its lock held; the caller frees `c` itself
+ * after unlocking when this returns 1 (else a thread waiting for the lock
+ * does, lock_live). */
+static int release(fogpipe_t *c)
 {
-    live_remove(c);
+    pthread_mutex_lock(&live_lock);
+    int mine = live_remove_locked(c);
+    pthread_mutex_unlock(&live_lock);
     drop_session(c);
     fp_options_free(&c->p);
     free_argv(c->argv, c->argc);
     c->argv = NULL;
+    return mine;
 }
 
 /* The call's status; its message kept when it failed.  Contexts freed by a
@@ -191,26 +238,29 @@ static int leave(fogpipe_t *c, int rc)
     } else {
         c->msg[0] = 0;
     }
-    fp_msg_set_emitter(NULL, NULL);
-    fogpipe_t *doomed = NULL;
+    fp_ctx_use(c->outer);
+    in_call = NULL;
+    pthread_mutex_lock(&live_lock);
+    int self = c->free_pending && !c->dead;
+    c->free_pending = 0;
+    pthread_mutex_unlock(&live_lock);
+    int mine = self ? release(c) : 0;
+    pthread_mutex_unlock(&c->lock);
+    if (mine)
+        destroy(c);
+    /* Other contexts a handler of this call freed: freed as fogpipe_free
+     * frees them (after a call in progress on them on another thread). */
     for (;;) {
         pthread_mutex_lock(&live_lock);
         fogpipe_t *d = live;
         while (d && !d->free_pending)
             d = d->next_live;
+        if (d)
+            d->free_pending = 0;
         pthread_mutex_unlock(&live_lock);
         if (!d)
             break;
-        release(d);
-        d->next_live = doomed;
-        doomed = d;
-    }
-    in_call = NULL;
-    pthread_mutex_unlock(&api_lock);
-    while (doomed) {
-        fogpipe_t *next = doomed->next_live;
-        free(doomed);
-        doomed = next;
+        fogpipe_free(d);
     }
     return rc;
 }
@@ -238,19 +288,18 @@ int fogpipe_new(fogpipe_t **out)
     fogpipe_t *c = calloc(1, sizeof *c);
     if (!c)
         return FOGPIPE_ERROR;
+    pthread_mutex_init(&c->lock, NULL);
+    pthread_mutex_init(&c->emit_lock, NULL);
     live_add(c);
     int rc = enter(c, "fogpipe_new");
-    if (rc) {
-        live_remove(c);
-        free(c);
-        return rc;
-    }
-    rc = fp_options_defaults(&c->p);
     if (rc)
-        release(c);
+        return rc;   /* freed meanwhile by another thread that guessed its address */
+    rc = fp_options_defaults(&c->p);
+    int mine = rc ? release(c) : 0;
     leave(c, rc);
     if (rc) {
-        free(c);
+        if (mine)
+            destroy(c);
         return rc;
     }
     *out = c;
@@ -269,17 +318,21 @@ void fogpipe_free(fogpipe_t *c)
     if (!c)
         return;
     if (reentry()) {
-        /* From a message handler (the call in progress holds api_lock):
-         * that call, whichever context it is on, frees it when it leaves. */
-        if (alive(c))
-            c->free_pending = 1;
+        /* From a message handler (the call in progress holds a lock): the
+         * call in progress frees it when it leaves. */
+        pthread_mutex_lock(&live_lock);
+        for (fogpipe_t *l = live; l; l = l->next_live)
+            if (l == c)
+                c->free_pending = 1;
+        pthread_mutex_unlock(&live_lock);
         return;
     }
     if (enter(c, "fogpipe_free"))
         return;   /* freed already */
-    release(c);
+    int mine = release(c);
     leave(c, FP_OK);
-    free(c);
+    if (mine)
+        destroy(c);
 }
 
 const char *fogpipe_error(const fogpipe_t *c)
@@ -293,16 +346,22 @@ void fogpipe_set_message_handler(fogpipe_t *c, fogpipe_message_fn fn, void *user
 {
     if (!c)
         return;
-    /* From a handler the call in progress holds api_lock already. */
-    int locked = !reentry();
-    if (locked)
-        pthread_mutex_lock(&api_lock);
-    if (alive(c)) {
-        c->fn = fn;
-        c->user = user;
+    if (reentry()) {
+        /* From a handler: the call in progress holds the lock (and the
+         * handler runs under emit_lock). */
+        if (alive(c)) {
+            c->fn = fn;
+            c->user = user;
+        }
+        return;
     }
-    if (locked)
-        pthread_mutex_unlock(&api_lock);
+    if (lock_live(c))
+        return;
+    pthread_mutex_lock(&c->emit_lock);
+    c->fn = fn;
+    c->user = user;
+    pthread_mutex_unlock(&c->emit_lock);
+    pthread_mutex_unlock(&c->lock);
 }
 
 int fogpipe_set(fogpipe_t *c, const char *name, const char *value, const char *origin)

@@ -37,11 +37,15 @@
  * caller's and are not kept after the call returns.  Strings returned are
  * the context's, valid until its next call.
  *
- * Threads.  A context is used by one thread at a time.  Calls into the
- * library are serialized by one process-wide lock (the OpenCL device and
- * the message routing are shared), so contexts on several threads are
- * safe but do not run at once.  fogpipe_free while another thread is in a
- * call on the same context waits for that call to return.  The library
+ * Threads.  A context is used by one thread at a time; contexts on
+ * different threads run at once.  Everything a call changes is its
+ * context's: its OpenCL device and programs, where its messages go, its
+ * verbosity, its image budget, the warnings it has given once, and the
+ * threads the call starts run in it (doc/design.md).  Calls on one context
+ * from several threads wait for each other; fogpipe_free while another
+ * thread is in a call on the same context waits for that call to return.
+ * Only the program's signal handling (fogpipe_run with FOGPIPE_RUN_SIGNALS)
+ * is the process's, as signals are.  The library
  * keeps the list of live contexts: a call on a freed context (or one that
  * was waiting for the lock while another thread freed it) is refused with
  * FOGPIPE_EUSAGE without touching it, a second fogpipe_free does nothing,
@@ -49,7 +53,7 @@
  * a context that another thread may call next: a later fogpipe_new may be
  * given the same address.
  *
- * Callbacks.  A message handler runs inside the call, under the library's
+ * Callbacks.  A message handler runs inside the call, under its context's
  * lock, one message at a time: on the calling thread, or during
  * fogpipe_run on one of the frame loop's threads.  From a handler,
  * fogpipe_error, fogpipe_version and fogpipe_set_message_handler work;
@@ -59,7 +63,7 @@
  * _parse_args, _apply, _run), on any context, is refused with
  * FOGPIPE_ERROR and the message "...: called from a message handler",
  * never a deadlock.  A handler must not wait for another thread's call
- * into the library (that thread waits for the lock this call holds).
+ * on the same context (that thread waits for the lock this call holds).
  *
  * ABI.  Symbols carry the version node FOGPIPE_0 (libfogpipe.so.0); only
  * the fogpipe_* names below are exported.  Structures given by pointer

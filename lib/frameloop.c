@@ -524,9 +524,9 @@ static void *writer_main(void *arg)
 static int run_pipelined(loop_t *l)
 {
     pthread_t reader, writer;
-    if (pthread_create(&reader, NULL, reader_main, l) != 0)
+    if (fp_thread_start(&reader, reader_main, l) != 0)
         return fp_error("cannot start the reader thread");
-    if (pthread_create(&writer, NULL, writer_main, l) != 0) {
+    if (fp_thread_start(&writer, writer_main, l) != 0) {
         pthread_mutex_lock(&l->mu);
         l->halt = 1;
         pthread_cond_broadcast(&l->cv);

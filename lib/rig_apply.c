@@ -12,12 +12,13 @@
 
 /* ------------------------------------------------------------ once a run */
 
-static int warned_up;
+/* Once a run (the context's, src/base/fp_ctx.h). */
+static const char warned_up = 0;
 
-static void warn_once(int *flag, const char *fmt, const char *a, long frame, const char *b,
-                      const char *c)
+static void warn_once(const char *flag, const char *fmt, const char *a, long frame,
+                      const char *b, const char *c)
 {
-    if (__atomic_exchange_n(flag, 1, __ATOMIC_RELAXED))
+    if (!fp_once(flag))
         return;
     fp_warn(fmt, a, frame, b, c);
 }

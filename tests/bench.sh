@@ -161,6 +161,11 @@ trap 'rm -rf "$tmp"' EXIT
   sed -n 's/.*fogmap decomposed in \([0-9.]*\) ms ([0-9]*, \([A-Za-z]*\)), \([0-9.]*\) ms .*/\1 \2 \3/p' \
     "$tmp/anim.txt" | awk '{ d += $1; a += $3; dev = $2; n++ }
       END { if (n) printf "| %.1f ms | %s | %.1f ms |\n", d / n, dev, a / n; else print "| - | - | - |" }'
+  # Contexts on two threads at once (issue 27).
+  if [ -n "${FP_BENCH_THREADS:-}" ]; then
+    echo
+    "$FP_BENCH_THREADS"
+  fi
 } > "$out.tmp"
 mv "$out.tmp" "$out"
 cat "$out"

@@ -6,23 +6,20 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-int fp_quiet = 0;
-int fp_verbose = 0;
-
 static _Thread_local fp_msgbuf_t *tl_sink;
-static fp_emit_fn g_emit;
-static void *g_emit_user;
 
 void fp_msg_set_emitter(fp_emit_fn fn, void *user)
 {
-    g_emit = fn;
-    g_emit_user = user;
+    fp_ctx_t *c = fp_ctx();
+    c->emit = fn;
+    c->emit_user = user;
 }
 
 void fp_emit(int kind, const char *text, size_t len)
 {
-    if (g_emit)
-        g_emit(g_emit_user, kind, text, len);
+    const fp_ctx_t *c = fp_ctx();
+    if (c->emit)
+        c->emit(c->emit_user, kind, text, len);
     else
         fwrite(text, 1, len, stderr);
 }

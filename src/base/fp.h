@@ -11,6 +11,8 @@
 #include <stdio.h>
 #include <stdarg.h>
 
+#include "fp_ctx.h"
+
 enum {
     FP_OK = 0,
     FP_ERR = 1,       /* runtime error: bad input file, I/O, device */
@@ -27,21 +29,22 @@ enum {
 int fp_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 /* Same, returning FP_EUSAGE. */
 int fp_usage_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-/* "fogpipe: warning: <message>" unless fp_quiet is set. */
+/* "fogpipe: warning: <message>" unless the context is quiet. */
 void fp_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-/* Verbose/informational message, printed only when fp_verbose > 0. */
+/* Verbose/informational message, printed only when the context is verbose. */
 void fp_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
-extern int fp_quiet;
-extern int fp_verbose;
+/* The current context's verbosity (src/base/fp_ctx.h), as lvalues. */
+#define fp_quiet (fp_ctx()->quiet)
+#define fp_verbose (fp_ctx()->verbose)
 
-/* Where messages go: stderr, unless an emitter is set (process-wide; the
- * library's API sets one so that it never prints).  `kind` says what the
+/* Where messages go: stderr, unless the current context has an emitter
+ * (the library's API sets its own so that it never prints).  `kind` says what the
  * text is; FP_MSG_KEPT is a buffer of whole lines kept by a frame
  * (errors, warnings and info mixed), FP_MSG_PROGRESS the progress output
  * (for a terminal it holds "\r" and escape codes). */
 enum { FP_MSG_ERROR = 0, FP_MSG_WARNING, FP_MSG_INFO, FP_MSG_KEPT, FP_MSG_PROGRESS };
-typedef void (*fp_emit_fn)(void *user, int kind, const char *text, size_t len);
+/* The current context's emitter (NULL: stderr). */
 void fp_msg_set_emitter(fp_emit_fn fn, void *user);
 void fp_emit(int kind, const char *text, size_t len);
 

@@ -7,7 +7,7 @@
 #include <errno.h>
 #include <stdlib.h>
 
-static fp_image_limits_t limits = {
+static const fp_image_limits_t defaults = {
     FP_LIMIT_PIXELS, FP_LIMIT_DIM, FP_LIMIT_LINE_BYTES, FP_LIMIT_CHANNELS,
     FP_LIMIT_PARTS
 };
@@ -21,9 +21,18 @@ void fp_image_limits_default(fp_image_limits_t *l)
     l->max_parts = FP_LIMIT_PARTS;
 }
 
-const fp_image_limits_t *fp_image_limits(void) { return &limits; }
+const fp_image_limits_t *fp_image_limits(void)
+{
+    const fp_ctx_t *c = fp_ctx();
+    return c->has_limits ? &c->limits : &defaults;
+}
 
-void fp_image_limits_set(const fp_image_limits_t *l) { limits = *l; }
+void fp_image_limits_set(const fp_image_limits_t *l)
+{
+    fp_ctx_t *c = fp_ctx();
+    c->limits = *l;
+    c->has_limits = 1;
+}
 
 void fp_image_limits_scaled(fp_image_limits_t *l, int64_t max_pixels)
 {
@@ -80,7 +89,7 @@ int fp_image_limits_check(const char *file, long frame, const char *kind,
     char fr[32] = "";
     if (frame >= 0)
         snprintf(fr, sizeof fr, " frame %ld:", frame);
-    const fp_image_limits_t *l = &limits;
+    const fp_image_limits_t *l = fp_image_limits();
     if (width < 1 || height < 1)
         return fp_error("%s:%s %s %lldx%lld is empty (expected a positive "
                         "width and height)", file, fr, kind,

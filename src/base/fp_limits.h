@@ -10,17 +10,13 @@
 
 #include <stdint.h>
 
+#include "fp_ctx.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-typedef struct fp_image_limits_t {
-    int64_t max_pixels;      /* pixels in one image (one EXR part) */
-    int64_t max_dim;         /* pixels along one axis */
-    int64_t max_line_bytes;  /* decoded bytes of one scanline, all channels */
-    int max_channels;        /* channels in one image */
-    int max_parts;           /* parts in one EXR file */
-} fp_image_limits_t;
+/* fp_image_limits_t: the budget, kept by the context (src/base/fp_ctx.h). */
 
 /* Defaults: 2^28 pixels (16384 x 16384), 2^20 along an axis, 1024
  * channels, 4096 parts, 1 GiB a line. */
@@ -30,8 +26,8 @@ typedef struct fp_image_limits_t {
 #define FP_LIMIT_CHANNELS    1024
 #define FP_LIMIT_PARTS       4096
 
-/* The limits in force (process-wide, as fp_exr_set_threads; the defaults
- * until fp_image_limits_set is called). */
+/* The limits in force in the current context (src/base/fp_ctx.h; the
+ * defaults until fp_image_limits_set is called in it). */
 const fp_image_limits_t *fp_image_limits(void);
 void fp_image_limits_set(const fp_image_limits_t *l);
 void fp_image_limits_default(fp_image_limits_t *l);

@@ -139,17 +139,15 @@ int64_t fp_exr_mem_write(exr_const_context_t ctxt, void *userdata,
 /* ------------------------------------------------------------ chunk workers */
 
 /* Threads that decode or encode the chunks of one part: 0 = one per
- * online core (fp_exr_set_threads). */
-static atomic_int g_threads;
-
+ * online core (fp_exr_set_threads; the current context's). */
 void fp_exr_set_threads(int n)
 {
-    atomic_store(&g_threads, n < 0 ? 0 : n);
+    fp_ctx()->exr_threads = n < 0 ? 0 : n;
 }
 
 int fp_exr_threads(void)
 {
-    int n = atomic_load(&g_threads);
+    int n = fp_ctx()->exr_threads;
     if (n > 0)
         return n;
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
@@ -209,7 +207,7 @@ fp_exr_worker_t *fp_exr_run_workers(void *(*fn)(void *), void *job, fp_exr_worke
         wk[i].fail = -1;
     }
     for (int i = 1; i < n; ++i)
-        started[i] = pthread_create(&th[i], NULL, fn, &wk[i]) == 0;
+        started[i] = fp_thread_start(&th[i], fn, &wk[i]) == 0;
     fn(&wk[0]);
     for (int i = 1; i < n; ++i) {
         if (started[i])

@@ -175,7 +175,7 @@ typedef struct fp_zip_t {
 /* Whether a part's compression is one this codec handles (ZIP, ZIPS). */
 int fp_zip_is_zip(int compression);
 /* Whether ZIP / ZIPS chunks go through this codec (1, the default) or
- * through OpenEXR's own zlib routines (0), process-wide: for
+ * through OpenEXR's own zlib routines (0), the current context's (src/base/fp_ctx.h): for
  * tests/bench_zip's before-and-after figures, taken in one program. */
 void fp_zip_set_enabled(int on);
 int fp_zip_enabled(void);

@@ -8,6 +8,7 @@
  * These run as the compress_fn / decompress_fn of the chunk workers'
  * pipelines (exr_write.c, exr_read.c); every other codec stays OpenEXR's. */
 #include "exr_internal.h"
+#include "fp_ctx.h"
 
 #include <libdeflate.h>
 
@@ -27,16 +28,15 @@
  * writes what current OpenEXR writes.  OpenEXR 3.1's zlib used 6. */
 #define FP_ZIP_DEFAULT_LEVEL 4
 
-static atomic_int zip_enabled = 1;
-
+/* The current context's choice (src/base/fp_ctx.h). */
 void fp_zip_set_enabled(int on)
 {
-    atomic_store(&zip_enabled, on != 0);
+    fp_ctx()->zip_off = !on;
 }
 
 int fp_zip_enabled(void)
 {
-    return atomic_load(&zip_enabled);
+    return !fp_ctx()->zip_off;
 }
 
 int fp_zip_is_zip(int compression)

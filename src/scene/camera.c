@@ -515,8 +515,9 @@ static double chan_blender_vfov(const fp_camera_params_t *cp, const fp_frame_inf
     return 2 * atan(t) * 180 / M_PI;
 }
 
-/* Once a run: what a .chan says against what the frame's header says. */
-static int chan_warned;
+/* Once a run (the context's, src/base/fp_ctx.h): what a .chan says
+ * against what the frame's header says. */
+static const char chan_warned = 0;
 
 static void chan_check(const fp_camera_params_t *cp, const fp_frame_info_t *info,
                        const char *where_file, long frame, double chan_vfov, double chan_lens,
@@ -529,7 +530,7 @@ static void chan_check(const fp_camera_params_t *cp, const fp_frame_info_t *info
     else if (info->lens_mm > 0 && chan_lens > 0 && fabs(chan_lens / info->lens_mm - 1) > 0.005)
         snprintf(msg, sizeof msg, "its FOV with the sensor height %g mm gives a %.2f mm lens, "
                  "the header's Lens says %.2f mm", cp->chan_sensor[1], chan_lens, info->lens_mm);
-    if (!msg[0] || __atomic_exchange_n(&chan_warned, 1, __ATOMIC_RELAXED))
+    if (!msg[0] || !fp_once(&chan_warned))
         return;
     fp_warn("%s: frame %ld: camera file %s: %s (Blender's .chan export: --chan-order xyz, "
             "--chan-sensor W,H; see README 'From Nuke')", where_file, frame, cp->chan, msg);
