@@ -422,26 +422,97 @@ int fp_ms_solve(const double *fp, double albedo, double g, const double sun[3],
     return 0;
 }
 
-/* The casters (kernels/ms_core.h FP_LT_MS_V): at each node p of a grid
- * over the fog box, the share of the light scattered once toward p that
- * comes from sunlit fog: the second order's weights, sigma(q) times the
- * sun's beam at q's height times e^-tau(p, q) (the 1/r^2 and r^2 dr
- * cancel: uniform steps along each direction), over FP_MS_DIRS
- * directions to the box's side, floor or top, with the sun's map for the
- * visibility V(q).  Without a map or a box with sides: no grid (1). */
+/* The casters and the box's sides (kernels/ms_core.h FP_LT_MS_V).  The
+ * light scattered once toward a point p comes from the fog around it,
+ * weighted (the second order) by sigma(q), the sun's beam at q's height
+ * and e^-tau(p, q) per unit length along each direction (the 1/r^2 and
+ * r^2 dr cancel), to the box's side, floor or top; only sunlit fog
+ * (V(q), the sun's map) sends it.  The slab's J_ms took that sum from
+ * the box's center at p's height, unshadowed; the grid holds the ratio
+ * of p's own sum, V included and paths ended by the casters, to it.
+ * FP_MS_DIRS directions, FP_MS_STEPS steps each.  Without a box with sides: no grid (1). */
 #define FP_MS_DIRS 32
-#define FP_MS_STEPS 12
+#define FP_MS_STEPS 96
+
+/* How far behind the surface the sun's map sees the fog-space point is
+ * (map units of depth; <= 0: lit, or outside the map). */
+static double map_behind(const double *lt, const float *smap, double x, double y, double z)
+{
+    const double *mm = lt + FP_LT_SM_NDC, *cz = lt + FP_LT_SM_Z;
+    int W = (int)lt[FP_LT_SM_W], H = (int)lt[FP_LT_SM_H];
+    double u = (x * mm[0] + y * mm[4] + z * mm[8] + mm[12]) * W;
+    double v = (x * mm[1] + y * mm[5] + z * mm[9] + mm[13]) * H;
+    if (!(u >= 0 && v >= 0 && u < W && v < H))
+        return 0;
+    double pz = x * cz[0] + y * cz[1] + z * cz[2] + cz[3];
+    int i = (int)floor(u), j = (int)floor(v);
+    i = i > W - 1 ? W - 1 : i;
+    j = j > H - 1 ? H - 1 : j;
+    return pz - smap[j * W + i];
+}
+
+typedef struct ms_column_t {
+    const double *fp, *lt, *tau, *box;
+    const float *smap;
+    double yb, yt, hf, mu0;
+    double dir[FP_MS_DIRS][3];
+} ms_column_t;
+
+/* p's sum: fog-local x, z; fog-space y; vis: with V(q). */
+static double source_sum(const ms_column_t *m, const double p[3], int vis)
+{
+    enum { NT = 2048 };
+    const double *fp = m->fp, *box = m->box;
+    double c = fp[FP_F_COS], sn = fp[FP_F_SIN];
+    double tp = tau_at(m->tau, m->yb, m->hf, NT, p[1]), sum = 0;
+    for (int d = 0; d < FP_MS_DIRS; d++) {
+        const double *w = m->dir[d];
+        double rmax = INFINITY;
+        for (int a = 0; a < 3; a += 2)
+            if (fabs(w[a]) > 1e-9)
+                rmax = fmin(rmax, ((w[a] > 0 ? box[3 + a] : box[a]) - p[a]) / w[a]);
+        if (fabs(w[1]) > 1e-9)
+            rmax = fmin(rmax, ((w[1] > 0 ? m->yt : m->yb) - p[1]) / w[1]);
+        if (!(rmax > 0) || !isfinite(rmax))
+            continue;
+        double dr = rmax / FP_MS_STEPS;
+        for (int st = 0; st < FP_MS_STEPS; st++) {
+            double r = (st + 0.5) * dr;
+            double q[3] = { p[0] + r * w[0], p[1] + r * w[1], p[2] + r * w[2] };
+            double tq = tau_at(m->tau, m->yb, m->hf, NT, q[1]);
+            double od = fabs(w[1]) > 1e-6 ? fabs(tp - tq) / fabs(w[1]) : sigma_at(fp, p[1]) * r;
+            double wt = sigma_at(fp, q[1]) * exp(-tq / m->mu0 - od) * dr;
+            if (vis && m->smap) {
+                /* fog-local -> fog space for the map */
+                double x = c * q[0] + sn * q[2] + fp[FP_F_OFF];
+                double z = -sn * q[0] + c * q[2] + fp[FP_F_OFF + 2];
+                double behind = map_behind(m->lt, m->smap, x, q[1], z);
+                /* Within 1.5 steps behind the surface the map sees: in a
+                 * caster (a wall, a pillar, the ground), which no step
+                 * can pass over; the path ends there (black surfaces, as
+                 * the reference's --ref-geometry).  Farther behind: fog
+                 * in the caster's shadow. */
+                if (behind > 0 && behind < 1.5 * dr)
+                    break;
+                wt *= behind > 0 ? 0 : 1;
+            }
+            if (wt > 0)
+                sum += wt;
+        }
+    }
+    return sum;
+}
+
 static void shadow_grid(const double *fp, double *lt, const float *smap)
 {
+    enum { NT = 2048 };
     lt[FP_LT_MS_GON] = 0;
     int mode = (int)lt[FP_LT_SHADOWS];
     const double *box = fp + FP_F_BOX;
     double yb, yt, mu0 = lt[FP_LT_SUN_DIR + 1];
-    if (!smap || (mode != FP_SHADOWS_MAP && mode != FP_SHADOWS_MAP_SCREEN) ||
-        !(fp[FP_F_SIGMA] > 0) || !isfinite(box[0]) || !isfinite(box[2]) || !isfinite(box[3]) ||
+    if (!(fp[FP_F_SIGMA] > 0) || !isfinite(box[0]) || !isfinite(box[2]) || !isfinite(box[3]) ||
         !isfinite(box[5]) || !(mu0 > 0) || slab_bounds(fp, &yb, &yt))
         return;
-    enum { NT = 2048 };
     double tau[NT + 1], hf = (yt - yb) / NT;
     tau[NT] = 0;
     for (int i = NT - 1; i >= 0; i--)
@@ -455,54 +526,30 @@ static void shadow_grid(const double *fp, double *lt, const float *smap)
             ytop = yb + i * hf;
     if (!(ytop > yb))
         return;
-    double dir[FP_MS_DIRS][3];
+    ms_column_t m = { fp, lt, tau, box,
+                      (mode == FP_SHADOWS_MAP || mode == FP_SHADOWS_MAP_SCREEN) ? smap : NULL,
+                      yb, yt, hf, mu0, { { 0 } } };
     for (int d = 0; d < FP_MS_DIRS; d++) {
-        /* Fibonacci sphere */
+        /* a Fibonacci sphere */
         double z = 1 - (2.0 * d + 1) / FP_MS_DIRS, r = sqrt(fmax(1 - z * z, 0));
         double ph = d * M_PI * (3 - sqrt(5.0));
-        dir[d][0] = r * cos(ph);
-        dir[d][1] = z;
-        dir[d][2] = r * sin(ph);
+        m.dir[d][0] = r * cos(ph);
+        m.dir[d][1] = z;
+        m.dir[d][2] = r * sin(ph);
     }
-    double c = fp[FP_F_COS], sn = fp[FP_F_SIN];
     double g0[3] = { box[0], yb, box[2] };
     double gd[3] = { (box[3] - box[0]) / (FP_MS_GX - 1), (ytop - yb) / (FP_MS_GY - 1),
                      (box[5] - box[2]) / (FP_MS_GZ - 1) };
-    for (int k = 0; k < FP_MS_GZ; k++)
-        for (int j = 0; j < FP_MS_GY; j++)
+    for (int j = 0; j < FP_MS_GY; j++) {
+        double pc[3] = { 0.5 * (box[0] + box[3]), g0[1] + j * gd[1], 0.5 * (box[2] + box[5]) };
+        double ref = source_sum(&m, pc, 0);
+        for (int k = 0; k < FP_MS_GZ; k++)
             for (int i = 0; i < FP_MS_GX; i++) {
-                double p[3] = { g0[0] + i * gd[0], g0[1] + j * gd[1], g0[2] + k * gd[2] };
-                double tp = tau_at(tau, yb, hf, NT, p[1]), num = 0, den = 0;
-                for (int d = 0; d < FP_MS_DIRS; d++) {
-                    const double *w = dir[d];
-                    /* To the box's sides (fog-local x, z), its floor or top. */
-                    double rmax = INFINITY;
-                    for (int a = 0; a < 3; a += 2)
-                        if (fabs(w[a]) > 1e-9)
-                            rmax = fmin(rmax, ((w[a] > 0 ? box[3 + a] : box[a]) - p[a]) / w[a]);
-                    if (fabs(w[1]) > 1e-9)
-                        rmax = fmin(rmax, ((w[1] > 0 ? yt : yb) - p[1]) / w[1]);
-                    if (!(rmax > 0) || !isfinite(rmax))
-                        continue;
-                    double dr = rmax / FP_MS_STEPS;
-                    for (int st = 0; st < FP_MS_STEPS; st++) {
-                        double r = (st + 0.5) * dr;
-                        double q[3] = { p[0] + r * w[0], p[1] + r * w[1], p[2] + r * w[2] };
-                        double tq = tau_at(tau, yb, hf, NT, q[1]);
-                        double od = fabs(w[1]) > 1e-6 ? fabs(tp - tq) / fabs(w[1])
-                                                      : sigma_at(fp, p[1]) * r;
-                        double wt = sigma_at(fp, q[1]) * exp(-tq / mu0 - od);
-                        if (!(wt > 0))
-                            continue;
-                        /* fog-local -> fog space for the map */
-                        double x = c * q[0] + sn * q[2] + fp[FP_F_OFF];
-                        double z = -sn * q[0] + c * q[2] + fp[FP_F_OFF + 2];
-                        num += wt * fp_shadow_map(lt, smap, x, q[1], z);
-                        den += wt;
-                    }
-                }
-                lt[FP_LT_MS_V + (k * FP_MS_GY + j) * FP_MS_GX + i] = den > 0 ? num / den : 1;
+                double p[3] = { g0[0] + i * gd[0], pc[1], g0[2] + k * gd[2] };
+                lt[FP_LT_MS_V + (k * FP_MS_GY + j) * FP_MS_GX + i] =
+                    ref > 0 ? source_sum(&m, p, 1) / ref : 1;
             }
+    }
     for (int a = 0; a < 3; a++) {
         lt[FP_LT_MS_G0 + a] = g0[a];
         lt[FP_LT_MS_GD + a] = gd[a];
