@@ -4,6 +4,7 @@
 #include "scatter.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -557,6 +558,66 @@ static void shadow_grid(const double *fp, double *lt, const float *smap)
     lt[FP_LT_MS_GON] = 1;
 }
 
+/* The grid depends on the fog, the sun and its map alone: a sequence with
+ * still fog and a still sun (its map one file, or the same map each
+ * frame) fills it once.  One entry for the process, keyed by those values
+ * and a 64-bit FNV-1a hash of the map's texels. */
+enum { KEY_N = FP_F_COUNT + 3 + 3 + 16 + 4 + 1,
+       GRID_N = FP_LT_COUNT - FP_LT_MS_GON };
+static pthread_mutex_t grid_lock = PTHREAD_MUTEX_INITIALIZER;
+static struct {
+    int valid;
+    double key[KEY_N];
+    unsigned long long hash;
+    double grid[GRID_N];
+} grid_cache;
+
+static void grid_key(const double *fp, const double *lt, const float *smap, double *key,
+                     unsigned long long *hash)
+{
+    int n = 0;
+    for (int i = 0; i < FP_F_COUNT; i++)
+        key[n++] = fp[i];
+    for (int i = 0; i < 3; i++)
+        key[n++] = lt[FP_LT_SUN_DIR + i];
+    key[n++] = lt[FP_LT_SHADOWS];
+    key[n++] = lt[FP_LT_SM_W];
+    key[n++] = lt[FP_LT_SM_H];
+    for (int i = 0; i < 16; i++)
+        key[n++] = lt[FP_LT_SM_NDC + i];
+    for (int i = 0; i < 4; i++)
+        key[n++] = lt[FP_LT_SM_Z + i];
+    key[n++] = smap != NULL;
+    unsigned long long h = 1469598103934665603ULL;
+    size_t nt = smap ? (size_t)lt[FP_LT_SM_W] * (size_t)lt[FP_LT_SM_H] : 0;
+    const unsigned char *b = (const unsigned char *)smap;
+    for (size_t i = 0; i < nt * sizeof *smap; i++)
+        h = (h ^ b[i]) * 1099511628211ULL;
+    *hash = h;
+}
+
+static void shadow_grid_cached(const double *fp, double *lt, const float *smap)
+{
+    double key[KEY_N];
+    unsigned long long h;
+    grid_key(fp, lt, smap, key, &h);
+    pthread_mutex_lock(&grid_lock);
+    int hit = grid_cache.valid && grid_cache.hash == h &&
+              memcmp(grid_cache.key, key, sizeof key) == 0;
+    if (hit)
+        memcpy(lt + FP_LT_MS_GON, grid_cache.grid, sizeof grid_cache.grid);
+    pthread_mutex_unlock(&grid_lock);
+    if (hit)
+        return;
+    shadow_grid(fp, lt, smap);
+    pthread_mutex_lock(&grid_lock);
+    memcpy(grid_cache.key, key, sizeof key);
+    grid_cache.hash = h;
+    memcpy(grid_cache.grid, lt + FP_LT_MS_GON, sizeof grid_cache.grid);
+    grid_cache.valid = 1;
+    pthread_mutex_unlock(&grid_lock);
+}
+
 int fp_ms_frame(const fp_params_t *p, double *lt, const double *fp, const float *smap)
 {
     const fp_ms_params_t *m = &p->ms;
@@ -583,7 +644,7 @@ int fp_ms_frame(const fp_params_t *p, double *lt, const double *fp, const float 
         lt[FP_LT_MS_DY] = dy;
         for (int i = 0; i < FP_MS_NODES; i++)
             lt[FP_LT_MS_J + i] = J[i];
-        shadow_grid(fp, lt, smap);
+        shadow_grid_cached(fp, lt, smap);
     } else if (!m->color_typed) {
         /* --fog-color auto without the fast path: the constant that gives
          * the column's multiply scattered light on average. */
