@@ -1,5 +1,6 @@
 #include "integrate.h"
 #include "fp.h"
+#include "ms.h"
 #include "options.h"
 
 #include <math.h>
@@ -44,9 +45,12 @@ const fp_option_t fp_integrate_options[] = {
       "set the haze by visibility (sigma = ln(10)/D)", set_visibility, 0 },
     { "haze-height", 0, FP_OPT_VEC, FOG(haze_height), 3, 2, "0,inf,inf", -1e9, INFINITY, NULL,
       "Y0,H[,TOP]", "height profile of the haze, as --height", NULL, 0 },
-    { "fog-color", 0, FP_OPT_VEC, FOG(color), 3, 3, "0.7,0.75,0.8", 0, 1e6, NULL, "R,G,B",
+    { "fog-color", 0, FP_OPT_VEC, FOG(color), 3, 3, "auto", 0, 1e6, NULL, "R,G,B|auto",
       "fog color: in-scattered ambient radiance, scene-linear, in the working space "
-      "(--working-space)", NULL, 0 },
+      "(--working-space); auto: derived from the sun and the fog (0 with "
+      "--multiple-scattering on, which then carries that light; the column's mean "
+      "multiply scattered light with it off; 0.7,0.75,0.8 without a sun)",
+      fp_ms_set_fog_color, 0 },
     { "fog-box", 0, FP_OPT_VEC, FOG(box), 6, 6, "-inf,-inf,-inf,inf,inf,inf", -INFINITY,
       INFINITY, NULL, "X0,Y0,Z0,X1,Y1,Z1",
       "no fog outside this box: world axes, in the fog's own frame (it moves and turns with "

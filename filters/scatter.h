@@ -13,7 +13,7 @@
 #include "integrate.h"
 #include "params.h"
 
-#define FP_LT_COUNT_ 119   /* kernels/light_core.h FP_LT_COUNT */
+#define FP_LT_COUNT_ 793   /* kernels/light_core.h FP_LT_COUNT */
 #define FP_LL_STRIDE_ 28   /* kernels/light_core.h FP_LL_STRIDE: reals per light */
 
 /* Add a light to the run's (any number, up to FP_MAX_LIGHTS): --light

@@ -3,6 +3,7 @@
 #include "scatter_internal.h"
 #include "exrio.h"
 #include "fp.h"
+#include "ms.h"
 #include "seq.h"
 #include "shadowcheck.h"
 #include "shafts.h"
@@ -347,7 +348,7 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
     fp_shadowcheck_wants(p, (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
                                 (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN);
     int rc = fp_scatter_screen(d, v, depth, frame);
-    if (rc)
+    if (rc || (rc = fp_ms_frame(p, lt, fog->fp, d->smap)))
         return rc;
     /* Without a fogmap the exact optical depth toward the sun is a closed
      * form: faster than any grid. */

@@ -23,6 +23,7 @@
 #define FP_SCATTER_DOUBLINGS 80   /* trial ends of the doubling in fp_scatter_ray_core */
 
 #include "shafts_core.h"
+#include "ms_core.h"
 
 /* The fast rule's functions (fp_l_*, fp_light_*): the C reference.  The
  * OpenCL kernel scatter_lights runs the same rule on float16 lanes
@@ -569,6 +570,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
             S[c] = albedo * -expm1(-od_total) * lt[FP_LT_AMB + c];
         return tau;
     }
+    /* The light scattered more than once (kernels/ms_core.h). */
+    fp_ms_ray(fp, lvi, lvf, coef, occ, lt, ox, oy, oz, dx, dy, dz, ta, tb, od_total, S);
     /* Local lights by the fast rule need no segments: without a sun the
      * ambient term is the closed form and the lights are done. */
     int nl = (int)lt[FP_LT_NLIGHTS];

@@ -28,6 +28,7 @@ extern const fp_option_t fp_preview_options[];
 extern const fp_option_t fp_run_options[];
 extern const fp_option_t fp_rig_options[];
 extern const fp_option_t fp_deep_options[];
+extern const fp_option_t fp_ms_options[];
 
 #define CMD(f) offsetof(fp_params_t, cmd.f)
 static const fp_option_t cmd_options[] = {
@@ -54,6 +55,7 @@ const fp_option_group_t fp_option_groups[] = {
     { "Fog", fp_integrate_options },
     { "Fogmap (wavelet fog)", fp_fogmap_options },
     { "Light (sun, local lights, shadows)", fp_scatter_options },
+    { "Multiple scattering", fp_ms_options },
     { "Rig (from the host)", fp_rig_options },
     { "Monte Carlo reference", fp_reference_options },
     { "Fog buffers (blur, resolution)", fp_buffers_options },
@@ -276,7 +278,7 @@ int fp_options_defaults(fp_params_t *p)
                 /* A vector default sets every component, even optional ones. */
                 const fp_option_t full = { o->name, 0, FP_OPT_VEC, o->offset, o->count,
                                            o->count, NULL, o->min, o->max, NULL,
-                                           o->metavar, NULL, NULL, 0 };
+                                           o->metavar, NULL, o->set, 0 };
                 rc = set_value(p, &full, o->def, "default");
             } else {
                 rc = set_value(p, o, o->def, "default");
@@ -384,7 +386,8 @@ int fp_options_load_preset(fp_params_t *p, const char *arg)
 static int look_safe(const fp_option_t *o)
 {
     static const fp_option_t *const groups[] = { fp_integrate_options, fp_scatter_options,
-                                                 fp_buffers_options, fp_animate_options };
+                                                 fp_buffers_options, fp_animate_options,
+                                                 fp_ms_options };
     if (o->flags & FP_OPTF_CLI_ONLY)
         return 0;
     if (o->type == FP_OPT_STRING && strcmp(o->name, "phase") != 0)

@@ -47,6 +47,7 @@ trap 'rm -rf "$tmp"' EXIT
   }
   mkdir -p "$tmp/tests"
   run_test test_phase | grep -E '^(normalization|pdf vs phase|mean cosine|sampled mu)' | sed 's/^/- phase functions, /'
+  run_test test_ms | grep -E '^(slab tau\* [0-9]+: largest|fp_ms_ray against)' | sed 's/^/- multiple scattering, /'
   run_test test_scatter | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C|shafts vs brute force|thin casters|--shadows screen|--shadows map\+screen|against the scene)' |
     sed 's/^/- /'
   if [ -x "$FP_BUILDDIR/tests/test_reference" ]; then
@@ -59,6 +60,8 @@ trap 'rm -rf "$tmp"' EXIT
   # fine map; what the map check says.
   mkdir -p "$tmp/shadows"
   FP_SRCDIR="${FP_SRCDIR:-.}" sh "${FP_SRCDIR:-.}/tests/bench_shadows.sh" "$tmp/shadows" && echo
+  # Issue 28: the fast multiple-scattering path against single scattering.
+  sh "${FP_SRCDIR:-.}/tests/bench_ms.sh" "$tmp/light" && echo
   # Whole pipeline: frames/s from --stats (the frame loop's wall time: the
   # device and program set-up before the first frame are left out), best of
   # two runs.  The I/O floor is the same run with the fog stage skipped

@@ -10,7 +10,10 @@
 # frame, single and multiple scattering within max(2%, 3 x the noise) of
 # Cycles', in a thin (sigma0 0.025) and a dense (0.1) fog; and the check
 # fails when scattered paths cross the geometry (--ref-geometry 0: 12-19%
-# too much light).  Skips when blender is not installed.
+# too much light).  The fast path (--multiple-scattering, no fog color)
+# on the same frames: |bias| <= 2% of the fog's light, 8x8-block rms <= 3
+# x Cycles' noise; it misses with the fast path off.  Skips when blender
+# is not installed.
 . "${FP_SRCDIR:-.}/tests/lib.sh"
 BLENDER=${BLENDER:-blender}
 if ! command -v "$BLENDER" >/dev/null 2>&1; then
@@ -29,6 +32,27 @@ for fog in thin:0.025 dense:0.1; do
     not_ok "$desc"
   fi
   diag "$T/$name.txt"
+  # The fast path (no fog color: --fog-color auto, --multiple-scattering
+  # auto) on the same frame: bias and 8x8-block rms against Cycles' whole
+  # fog light (tests/blender/msfast_compare.py); and with the fast path
+  # off the same check must miss.
+  opts=$(sed 's/--fog-color [^ ]*//' "$T/$name/scene.txt")
+  for ms in auto off; do
+    # shellcheck disable=SC2086 # the options are words
+    nice -n 19 "$FOGPIPE" -q -i "$T/$name/plate.####.exr" -o "$T/$name/fast-$ms.####.exr" \
+      --frames 1 $opts --multiple-scattering "$ms" --float > "$T/$name-fast.txt" 2>&1 || true
+    python3 "$FP_SRCDIR/tests/blender/msfast_compare.py" "$T/$name/ms1.0001.exr" \
+      "$T/$name/ms2.0001.exr" "$T/$name/fast-$ms.0001.exr" 0.02 3 >> "$T/$name-fast.txt" 2>&1
+    st=$?
+    if [ "$ms" = auto ]; then
+      desc="$name fog: the fast path without a fog color is Cycles' light (|bias| 2%, 8x8 blocks 3 x noise)"
+      if [ $st = 0 ]; then ok "$desc"; else not_ok "$desc"; fi
+    else
+      desc="$name fog: the same check misses without multiple scattering"
+      if [ $st = 1 ] && grep -q "^MISS" "$T/$name-fast.txt"; then ok "$desc"; else not_ok "$desc"; fi
+    fi
+  done
+  diag "$T/$name-fast.txt"
 done
 desc="dense fog: the comparison fails when scattered paths cross the geometry (--ref-geometry 0)"
 if FP_SKIP_CYCLES=1 FP_EXTRA="--ref-geometry 0" FP_MS_MAXBIAS=0.02 sh "$RUN" "$T/dense" 128 256 \

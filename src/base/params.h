@@ -233,6 +233,14 @@ typedef struct fp_cmd_params_t {
     int print_camera;
 } fp_cmd_params_t;
 
+/* The fast multiple-scattering path and --fog-color auto (filters/ms.c). */
+enum { FP_MS_AUTO = 0, FP_MS_ON = 1, FP_MS_OFF = 2 };
+typedef struct fp_ms_params_t {
+    int mode;             /* FP_MS_* (--multiple-scattering) */
+    double ground_albedo;
+    int color_typed;      /* --fog-color R,G,B given (0: auto) */
+} fp_ms_params_t;
+
 typedef struct fp_params_t {
     fp_io_params_t io;
     fp_camera_params_t camera;
@@ -247,6 +255,7 @@ typedef struct fp_params_t {
     fp_reference_params_t reference;
     fp_buffers_params_t buffers;
     fp_deep_params_t deep;
+    fp_ms_params_t ms;
     fp_cmd_params_t cmd;
     /* Names of the options the user gave (CLI or preset), for "was this
      * set?" questions such as camera overrides. */
