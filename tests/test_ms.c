@@ -28,6 +28,7 @@
 #include "integrate.h"
 #include "ms.h"
 #include "options.h"
+#include "options_all.h"
 #include "scatter.h"
 
 #include "fog_core.h"
