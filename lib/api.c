@@ -9,6 +9,7 @@
 #include "fp.h"
 #include "options_all.h"
 #include "pipeline.h"
+#include "session.h"
 
 #include "config.h"
 

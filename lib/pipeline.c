@@ -925,89 +925,50 @@ int fp_pipeline_run(fp_params_t *p)
     return rc;
 }
 
-/* ------------------------------------------------------------ frames from memory */
+/* ------------------------------------------------------------ frames from memory
+ * The run as lib/session.c drives it (lib/session.h). */
 
-struct fp_session_t {
-    run_t r;
-};
-
-int fp_session_open(fp_params_t *p, fp_session_t **out)
+int fp_run_open(fp_params_t *p, fp_run_t **out)
 {
     *out = NULL;
-    fp_session_t *s = calloc(1, sizeof *s);
-    if (!s)
+    run_t *r = calloc(1, sizeof *r);
+    if (!r)
         return fp_error("out of memory");
-    s->r.p = p;
-    pthread_mutex_init(&s->r.pool_mu, NULL);
-    int rc = setup(&s->r);
+    r->p = p;
+    pthread_mutex_init(&r->pool_mu, NULL);
+    int rc = setup(r);
     if (rc == FP_OK)
-        rc = fp_color_commit(p, &s->r.color);
+        rc = fp_color_commit(p, &r->color);
     if (rc == FP_OK)
-        rc = open_device(&s->r);
+        rc = open_device(r);
     if (rc) {
-        fp_session_close(s);
+        fp_run_close(r);
         return rc;
     }
-    *out = s;
+    *out = r;
     return FP_OK;
 }
 
-int fp_session_frame(fp_session_t *s, const fp_frame_info_t *info, float *rgba,
-                     const float *depth, const char *name, long frame, float *fog_rgba,
-                     float *transmittance)
+int fp_run_composite(fp_run_t *r, const fp_camera_t *cam, const fp_frame_info_t *info,
+                     float *rgba, const float *depth, const char *name, long frame, float *fog,
+                     int want_layers, fp_color_frame_t *color)
 {
-    run_t *r = &s->r;
-    fp_camera_t cam;
-    int rc = fp_camera_resolve(r->p, info, name, frame, &cam);
-    if (rc)
-        return rc;
-    size_t n = (size_t)info->width * info->height;
-    float *fog = malloc(n * 4 * sizeof *fog);
-    if (!fog)
-        return fp_error("%s: frame %ld: out of memory", name, frame);
-    fp_color_frame_t color;
     double ms[FP_T_COUNT] = { 0 }, decompose_ms = 0;
-    rc = fog_composite(r, &cam, info, rgba, depth, name, frame, fog, fog_rgba || transmittance,
-                       &color, ms, &decompose_ms);
-    if (rc == FP_OK && (fog_rgba || transmittance)) {
-        /* The layers of --aov, whatever the options say. */
-        fp_params_t q = *r->p;
-        q.aov.aov = 1;
-        fp_aov_frame_t a;
-        if ((rc = fp_aov_make(&q, &color, fog, n, name, frame, &a)) == FP_OK) {
-            for (size_t i = 0; i < n; i++)
-                for (int c = 0; c < 4; c++) {
-                    if (fog_rgba)
-                        fog_rgba[4 * i + c] = a.planes[(size_t)c * n + i];
-                    if (transmittance && c < 3)
-                        transmittance[3 * i + c] = a.planes[(size_t)(4 + c) * n + i];
-                }
-            fp_aov_free(&a);
-        }
-    }
-    free(fog);
-    return rc;
+    return fog_composite(r, cam, info, rgba, depth, name, frame, fog, want_layers, color, ms,
+                         &decompose_ms);
 }
 
-int fp_session_deep(fp_session_t *s, const fp_frame_info_t *info, const float *rgba,
-                    const float *depth, const char *name, long frame, fp_deep_image_t **out)
+int fp_run_deep(fp_run_t *r, const fp_deep_data_t *dd, const fp_camera_t *cam,
+                const fp_frame_info_t *info, const float *rgba, const float *depth,
+                const char *name, long frame, fp_color_frame_t *color, fp_deep_image_t **out)
 {
-    run_t *r = &s->r;
-    fp_params_t q = *r->p;
-    q.deep.deep = 1;
-    fp_deep_data_t dd;
-    fp_camera_t cam;
-    fp_color_frame_t color;
-    int rc = fp_deep_commit(&q, &dd);
-    if (rc == FP_OK && (rc = fp_camera_resolve(r->p, info, name, frame, &cam)) == FP_OK)
-        rc = deep_image(r, &dd, &cam, info, NULL, rgba, depth, NULL, name, frame, &color, out);
-    return rc;
+    return deep_image(r, dd, cam, info, NULL, rgba, depth, NULL, name, frame, color, out);
 }
 
-void fp_session_close(fp_session_t *s)
+void fp_run_close(fp_run_t *r)
 {
-    if (!s)
+    if (!r)
         return;
-    run_release(&s->r);
-    free(s);
+    run_release(r);
+    free(r);
 }

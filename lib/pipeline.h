@@ -6,6 +6,9 @@
 #ifndef FP_PIPELINE_H
 #define FP_PIPELINE_H
 
+#include "camera.h"
+#include "color.h"
+#include "deep.h"
 #include "exr_deep.h"
 #include "exrio.h"
 #include "params.h"
@@ -14,22 +17,19 @@
  * signal number when SIGINT or SIGTERM stopped the run (lib/frameloop.h). */
 int fp_pipeline_run(fp_params_t *p);
 
-/* Frames held in memory (the library's fogpipe_apply): a session keeps the
- * device, programs, fogmap and color processors of `p` (which must outlive
- * it and not change) across frames. */
-typedef struct fp_session_t fp_session_t;
-int fp_session_open(fp_params_t *p, fp_session_t **out);
-/* Fog and composite `rgba` (info->width x height RGBA) in place with
- * `depth`; the fog layers of --aov into fog_rgba (n*4) and transmittance
- * (n*3) when not NULL.  Messages name `name` and `frame`. */
-int fp_session_frame(fp_session_t *s, const fp_frame_info_t *info, float *rgba,
-                     const float *depth, const char *name, long frame, float *fog_rgba,
-                     float *transmittance);
-/* The fog of `rgba` (the input space) and `depth` as deep samples, as
- * --deep makes them whatever the options say (filters/deep_frame.h);
- * *out is the caller's (fp_deep_free). */
-int fp_session_deep(fp_session_t *s, const fp_frame_info_t *info, const float *rgba,
-                    const float *depth, const char *name, long frame, fp_deep_image_t **out);
-void fp_session_close(fp_session_t *s);
+/* The run as frames in memory use it (lib/session.c): set up, colour
+ * committed, device open. */
+typedef struct run_t fp_run_t;
+int fp_run_open(fp_params_t *p, fp_run_t **out);
+/* The fog of one frame composited into rgba (in place); `fog` receives
+ * the fog layer (n x 4), `color` the frame's colour when want_layers. */
+int fp_run_composite(fp_run_t *r, const fp_camera_t *cam, const fp_frame_info_t *info,
+                     float *rgba, const float *depth, const char *name, long frame, float *fog,
+                     int want_layers, fp_color_frame_t *color);
+/* The frame as deep samples (dd from fp_deep_commit). */
+int fp_run_deep(fp_run_t *r, const fp_deep_data_t *dd, const fp_camera_t *cam,
+                const fp_frame_info_t *info, const float *rgba, const float *depth,
+                const char *name, long frame, fp_color_frame_t *color, fp_deep_image_t **out);
+void fp_run_close(fp_run_t *r);
 
 #endif

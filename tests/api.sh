@@ -71,9 +71,9 @@ if "$PY" -c "import numpy" 2>/dev/null; then
   done < "$T/py.tap"
   grep -q "^1\.\." "$T/py.tap" || { not_ok "python: the test ran to its end"; diag "$T/py.tap"; }
   grep "^#" "$T/py.tap" || true
-  sed -n '/<!-- example:python -->/,/<!-- example:end -->/p' "$FP_SRCDIR/README.md" |
+  sed -n '/<!-- example:python -->/,/<!-- example:end -->/p' "$FP_SRCDIR/doc/library.md" |
     sed '1d;$d; s/^    //' > "$T/readme_example.py"
-  check "the README's Python example runs" sh -c '
+  check "the manual's Python example runs (doc/library.md)" sh -c '
     PYTHONPATH="$1/python" FOGPIPE_LIBRARY="$2/.libs/libfogpipe.so.0" "$3" "$4" > "$5" &&
     grep -Eq "^\(270, 480, 4\) 0\.[0-9]+" "$5"' sh "$FP_SRCDIR" "$FP_BUILDDIR" "$PY" \
     "$T/readme_example.py" "$T/readme_example.txt"

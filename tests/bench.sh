@@ -48,10 +48,10 @@ trap 'rm -rf "$tmp"' EXIT
   mkdir -p "$tmp/tests"
   run_test test_phase | grep -E '^(normalization|pdf vs phase|mean cosine|sampled mu)' | sed 's/^/- phase functions, /'
   run_test test_ms | grep -E '^(slab tau\* [0-9]+: largest|fp_ms_ray against)' | sed 's/^/- multiple scattering, /'
-  run_test test_scatter | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C|shafts vs brute force|thin casters|--shadows screen|--shadows map\+screen|against the scene)' |
+  { run_test test_scatter; run_test test_selfshadow; run_test test_lightfast; run_test test_shafts; } | grep -E '^(ambient only|sun single scattering|point light vs|halos at|self-shadowing \(exact\)|self-shadow map|OpenCL vs C|shafts vs brute force|thin casters|--shadows screen|--shadows map\+screen|against the scene)' |
     sed 's/^/- /'
   if [ -x "$FP_BUILDDIR/tests/test_reference" ]; then
-    run_test test_reference |
+    { run_test test_reference; run_test test_bounces; } |
       grep -E '^(ray [0-9]+: T =|ray [0-9]+: ratio|48 rays|default: |plain: |[0-9]+x[0-9]+, reference)' |
       sed 's/^ray /slab, ray /; s/^48 rays/fogmap transmittance, 48 rays/; s/^default: /sun single scattering vs quadrature (stratified, residual tracking): /; s/^plain: /the same, plain delta and ratio tracking: /; s/^\([0-9]*x[0-9]*\), reference/deterministic against the reference on the sample scene, \1: reference/; s/^/- Monte Carlo reference, /'
   fi

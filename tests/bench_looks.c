@@ -416,7 +416,7 @@ static void shafts_section(const char *scratch_dir)
            "Against brute force (1e5 midpoint steps per ray, point-sampled map, exact "
            "self-shadowing per point) on %zu pixels of frame 1, the sun's share relative to "
            "itself (at least 1%% of the largest): C reference max %.1e (mean %.1e), OpenCL "
-           "(float) max %.1e; the issue's bound 1e-4 (its test: tests/test_scatter, "
+           "(float) max %.1e; the issue's bound 1e-4 (its test: tests/test_shafts, "
            "test_shafts_brute).\n",
            nss, f.npix, max_c, counted ? mean_c / counted : NAN, max_cl);
 }

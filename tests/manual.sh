@@ -76,8 +76,8 @@ if command -v "$PY" >/dev/null 2>&1; then
     FOGPIPE_LIBRARY="$2/lib/libfogpipe.so.0" PYTHONPATH="$2/lib/python$3/dist-packages" \
       "$1" -c "import fogpipe, sys; sys.exit(not fogpipe.__file__.startswith(\"$2/lib/python$3/dist-packages/fogpipe/\"))"' \
     sh "$PY" "$P" "$pyver"
-  check "README names PREFIX/lib/python3.X/dist-packages and PYTHONPATH" sh -c '
-    grep -q "PREFIX/lib/python3.X/dist-packages" "$1" && grep -q "export PYTHONPATH=" "$1"' sh "$FP_SRCDIR/README.md"
+  check "doc/library.md names PREFIX/lib/python3.X/dist-packages and PYTHONPATH" sh -c '
+    grep -q "PREFIX/lib/python3.X/dist-packages" "$1" && grep -q "export PYTHONPATH=" "$1"' sh "$FP_SRCDIR/doc/library.md"
 else
   skip "the Python module (no python3)"
 fi

@@ -41,6 +41,7 @@
 #include "fp.h"
 #include "options_all.h"
 #include "pipeline.h"
+#include "session.h"
 
 #include "buffers.h"
 

@@ -1,6 +1,7 @@
 #!/bin/sh
-# Regenerate the README's option reference from the option tables:
-#   tools/update-readme.sh ./fogpipe README.md
+# Regenerate the option reference (doc/options.md, between its
+# options:begin and options:end markers) from the option tables:
+#   tools/update-readme.sh ./fogpipe doc/options.md
 set -eu
 bin=$1 readme=$2
 tmp=$(mktemp)

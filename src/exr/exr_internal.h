@@ -284,4 +284,14 @@ static inline uint64_t fp_exr_rd_u64(const uint8_t *p)
 int fp_exr_rig_attr(const exr_attribute_t *a, fp_rig_attrs_t *r);
 void fp_exr_rig_attrs_free(fp_rig_attrs_t *r);
 
+/* ------------------------------------------------------------ channels
+ * (src/exr/exr_select.c) */
+
+/* Channel `name` of part `pt`, or -1. */
+int fp_exr_find_in_part(const fp_part_t *pt, const char *name);
+/* Find the frame's colour and depth channels as `sel` asks (one error
+ * line naming the file, the frame and what was looked for). */
+int fp_exr_select_channels(fp_frame_t *f, const fp_exr_select_t *sel, const char *where,
+                           long frame);
+
 #endif
