@@ -1,5 +1,6 @@
 #include "fogmap.h"
 #include "animate.h"
+#include "fogmap_cache.h"
 #include "fp.h"
 #include "oiio_bridge.h"
 #include "options.h"
@@ -62,6 +63,9 @@ const fp_option_t fp_fogmap_options[] = {
     { "fogmap-preview", 0, FP_OPT_STRING, FM(preview), 0, 0, NULL, 0, 0, NULL, "DIR",
       "write one PNG per wavelet level and the reconstructed fogmap into DIR, then exit", NULL,
       FP_OPTF_CLI_ONLY },
+    { "fogmap-cache", 0, FP_OPT_STRING, FM(cache), 0, 0, NULL, 0, 0, NULL, "DIR|off",
+      "keep a big still fogmap's decomposition in DIR, keyed by its content, for later runs "
+      "(default: fogmaps/ in the OpenCL program cache directory; off: never)", NULL, 0 },
     FP_OPT_END
 };
 
@@ -513,6 +517,12 @@ done:
     return rc;
 }
 
+static unsigned long next_serial(void)
+{
+    static _Atomic unsigned long serial;
+    return ++serial;
+}
+
 static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_fog,
                         int deconstruct, fp_fog_tables_t *t)
 {
@@ -647,8 +657,7 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
     free(tbx);
     free(tby);
     free(tval);
-    static _Atomic unsigned long serial;
-    t->serial = ++serial;
+    t->serial = next_serial();
     t->nlevels = nl;
     t->ncoef = ncoef;
     t->nocc = nocc + 1;
@@ -714,8 +723,13 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
                                      fp_fogmap_od_scale(p, w, h))))
         return rc;
     double t0 = now_ms();
-    rc = FP_ERR;
-    if (cl) {
+    fp_fogmap_cache_t fc;
+    if ((rc = fp_fogmap_cache_open(p, cl, img, w, h, &fc)))
+        return rc;
+    int cached = fp_fogmap_cache_load(&fc, &s->map, &s->tables);
+    s->used_cl = cached && cl;
+    rc = cached ? FP_OK : FP_ERR;
+    if (rc && cl) {
         rc = fp_wavelet_decompose_cl(cl, img, w, h, fm->basis, fm->levels, fm->wrap, &s->map);
         if (rc)
             fp_warn("%s: OpenCL decomposition failed; using the C reference", fm->fogmap);
@@ -724,15 +738,18 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
     if (rc)
         rc = fp_wavelet_decompose(img, w, h, fm->basis, fm->levels, fm->wrap, &s->map);
     s->decompose_ms = now_ms() - t0;
-    if (rc)
+    if (rc) {
+        fp_fogmap_cache_close(&fc);
         return rc;
+    }
     const fp_fogmap_t *m = &s->map;
     const char *name = fm->fogmap ? fm->fogmap : "fogmap";
     if (m->levels < fm->levels)
         fp_warn("%s: %dx%d with --fog-wrap repeat allows %d levels (2^levels must divide the "
                 "size), not %d", name, w, h, m->levels, fm->levels);
-    fp_info("%s: %dx%d, %d levels, decomposed in %.1f ms (%s)", name, w, h, m->levels,
-            s->decompose_ms, s->used_cl ? "OpenCL" : "C");
+    fp_info("%s: %dx%d, %d levels, %s in %.1f ms (%s)", name, w, h, m->levels,
+            cached ? "loaded from the fogmap cache" : "decomposed", s->decompose_ms,
+            s->used_cl ? "OpenCL" : "C");
 
     /* Fog-space rectangle: with --up z fog z is -world y, so the rows that
      * run from Y1 (row 0) down to Y0 run along +z from -Y1. */
@@ -779,7 +796,28 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
     }
     s->cell_to_fog = 1.0 / fmax(v[FP_F_USCALE], v[FP_F_VSCALE]);
     s->decompositions = 1;
-    if ((rc = build_tables(m, img, s->cell_to_fog, fm->deconstruct, &s->tables)))
+    if (cached) {
+        /* What the key leaves out: the cells' size in fog units (the
+         * rectangle) and the tables' identity. */
+        for (int l = 0; l <= m->num_levels; l++)
+            s->tables.lvf[l * FP_LR_STRIDE + FP_LR_LOD_DIST] =
+                s->tables.lvf[l * FP_LR_STRIDE + FP_LR_CELL] * s->cell_to_fog;
+        s->tables.serial = next_serial();
+    } else if ((rc = build_tables(m, img, s->cell_to_fog, fm->deconstruct, &s->tables)) == FP_OK) {
+        fp_fogmap_cache_store(&fc, m, &s->tables);
+        /* The levels themselves are read only by --fogmap-preview and the
+         * animation; the tables hold what the integrator reads (and what a
+         * cache hit has): 200 MB less before a 4096 map's upload. */
+        if (!fm->preview && !fp_animate_fogmap_animated(p)) {
+            fp_fogmap_t keep = s->map;
+            fp_fogmap_free(&s->map);
+            memset(keep.level, 0, sizeof keep.level);
+            memset(keep.band, 0, sizeof keep.band);
+            s->map = keep;
+        }
+    }
+    fp_fogmap_cache_close(&fc);
+    if (rc)
         return rc;
     d->tables = &s->tables;
     return FP_OK;

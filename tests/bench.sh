@@ -31,6 +31,9 @@ trap 'rm -rf "$tmp"' EXIT
     "$FP_BENCH_LOD" "$tmp/looks/mid/scene.0001.exr" "$tmp/looks/mid/fogmap.exr" \
       "$tmp/looks/fog4096.exr" && echo
   fi
+  # Issue 26: a detailed 4096x4096 fogmap, its set-up cached across runs.
+  sh "$(dirname "$0")/bench_bigmap.sh" "$tmp/seed/scene.0001.exr" "$tmp/seed/fogmap.exr" \
+    "$tmp/bigmap" && echo
   # Fog self-shadowing: the default grid's cost and error (the looks' frames).
   if [ -n "${FP_BENCH_SELFSHADOW:-}" ]; then
     "$FP_BENCH_SELFSHADOW" "$tmp/looks/small" "$tmp/looks/mid" && echo

@@ -82,6 +82,7 @@ typedef struct fp_fogmap_params_t {
     int sparse;
     int deconstruct;
     char *preview;        /* directory for --fogmap-preview */
+    char *cache;          /* --fogmap-cache DIR|off (filters/fogmap_cache.h); NULL: default */
 } fp_fogmap_params_t;
 
 enum { FP_INTERP_HOLD = 0, FP_INTERP_LINEAR, FP_INTERP_SMOOTH };
