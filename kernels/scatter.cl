@@ -141,7 +141,7 @@ __kernel void scatter_lights(__global const float *restrict depth,
     fp_lnr omt = 1.0f - FP_LN_CAT(vload, FP_LN_LANES)(0, st);
     fp_lnr budget = FP_LN(lt[FP_LT_CULL]), ta, tb;
     fp_ln_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb);
-    float smax = fp_light_sigma_max(fp);
+    fp_lnr smax = fp_ln_sigma_span(fp, oy, dy, ta, tb);
     int nl = (int)lt[FP_LT_NLIGHTS];
     for (int k = 0; k < nl; k++) {
         if (lt[FP_LT_CULL] > 0) {
