@@ -5,7 +5,7 @@
 #include "fog_core.h"
 #include "light_core.h"
 /* Local lights by the fast rule run apart, all in one launch of
- * scatter_lights (filters/scatter.c), 16 pixels per work-item as vector
+ * scatter_lights (filters/scatter_cl.c), 16 pixels per work-item as vector
  * lanes (scatter_lanes.h), which the CPU device runs as SIMD code. */
 #define FP_LIGHTS_APART
 #include "scatter_core.h"

@@ -29,7 +29,7 @@
 #define FP_SCATTER_LANES_H
 
 #ifdef __OPENCL_VERSION__
-/* 16: one AVX-512 register of floats; filters/scatter.c launches
+/* 16: one AVX-512 register of floats; filters/scatter_cl.c launches
  * scatter_lights with this many pixels per work-item. */
 #define FP_LN_LANES 16
 #define FP_LN_CAT_(a, b) a##b
