@@ -816,6 +816,8 @@ FP_FN fp_real fp_light_sigma_max(FP_CONSTANT const fp_real *fp)
                                  : fmax(fp[FP_F_SIGMA], (fp_real)0) + fmax(fp[FP_F_HAZE], (fp_real)0);
 }
 
+#include "cull_core.h"
+
 /* Culling (--light-cull): the most local light `row` can add to any
  * channel of the view ray o + t d's in-scatter over [ta, tb] (tb may be
  * +inf), one_minus_tau at least the ray's 1 - tau there.  0 when the
@@ -861,7 +863,9 @@ FP_FN fp_real fp_light_bound(FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_r
     fp_real f = D / (D - rho);
     f *= f;
     fp_real b = fmin(one_minus_tau * f / (D * D), sigma_max * (th1 - th0) * f / D);
-    return lt[FP_LT_ALBEDO] * row[FP_LL_IMAX] * lt[FP_LT_PMAX] * b;
+    /* pmax: the phase over the stretch alone for a point (cull_core.h). */
+    fp_real pm = rho > 0 ? lt[FP_LT_PMAX] : fp_light_phase_span(lt, D, tc, ta, tb);
+    return lt[FP_LT_ALBEDO] * row[FP_LL_IMAX] * pm * b;
 }
 
 #endif

@@ -5,7 +5,7 @@
 #include "fog_core.h"
 #include "light_core.h"
 /* Local lights by the fast rule run apart, all in one launch of
- * scatter_lights (filters/scatter.c), 16 pixels per work-item as vector
+ * scatter_lights (filters/scatter_cl.c), 16 pixels per work-item as vector
  * lanes (scatter_lanes.h), which the CPU device runs as SIMD code. */
 #define FP_LIGHTS_APART
 #include "scatter_core.h"
@@ -141,7 +141,7 @@ __kernel void scatter_lights(__global const float *restrict depth,
     fp_lnr omt = 1.0f - FP_LN_CAT(vload, FP_LN_LANES)(0, st);
     fp_lnr budget = FP_LN(lt[FP_LT_CULL]), ta, tb;
     fp_ln_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb);
-    float smax = fp_light_sigma_max(fp);
+    fp_lnr smax = fp_ln_sigma_span(fp, oy, dy, ta, tb);
     int nl = (int)lt[FP_LT_NLIGHTS];
     for (int k = 0; k < nl; k++) {
         if (lt[FP_LT_CULL] > 0) {

@@ -493,7 +493,7 @@ FP_FN fp_real fp_scatter_ambient_lights(FP_CONSTANT const fp_real *fp, FP_CONSTA
 #ifndef FP_LIGHTS_APART
     fp_real budget = lt[FP_LT_CULL], ta, tb;
     fp_light_span(fp, ox, oy, oz, dx, dy, dz, len, &ta, &tb);
-    fp_real smax = fp_light_sigma_max(fp), omt = -expm1(-od_total);
+    fp_real smax = fp_light_sigma_span(fp, oy, dy, ta, tb), omt = -expm1(-od_total);
     for (int k = 0; fast && tb > ta && k < (int)lt[FP_LT_NLIGHTS]; k++) {
         if (budget > 0) {
             fp_real b = fp_light_bound(lt, lights + k * FP_LL_STRIDE, smax, omt, ox, oy, oz, dx, dy,
@@ -714,7 +714,7 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
 #ifndef FP_LIGHTS_APART
         fp_real budget = lt[FP_LT_CULL], la, lb;
         fp_light_span(fp, ox, oy, oz, dx, dy, dz, len, &la, &lb);
-        fp_real smax = fp_light_sigma_max(fp), omt = -expm1(-od_total);
+        fp_real smax = fp_light_sigma_span(fp, oy, dy, la, lb), omt = -expm1(-od_total);
         for (int k = 0; lb > la && k < nl; k++) {
             if (budget > 0) {
                 fp_real b = fp_light_bound(lt, lights + k * FP_LL_STRIDE, smax, omt, ox, oy, oz, dx,
@@ -732,7 +732,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
 #endif
         return tau;
     }
-    fp_real budget = lt[FP_LT_CULL], omt = -expm1(-od_total), smax = fp_light_sigma_max(fp);
+    fp_real budget = lt[FP_LT_CULL], omt = -expm1(-od_total);
+    fp_real smax = fp_light_sigma_span(fp, oy, dy, ta, tl);
     for (int k = 0; k < nl; k++) {
         FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
         if (budget > 0) {

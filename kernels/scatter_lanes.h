@@ -29,7 +29,7 @@
 #define FP_SCATTER_LANES_H
 
 #ifdef __OPENCL_VERSION__
-/* 16: one AVX-512 register of floats; filters/scatter.c launches
+/* 16: one AVX-512 register of floats; filters/scatter_cl.c launches
  * scatter_lights with this many pixels per work-item. */
 #define FP_LN_LANES 16
 #define FP_LN_CAT_(a, b) a##b
@@ -294,9 +294,11 @@ FP_LN_FN fp_lnr fp_ln_gain(FP_GLOBAL const fp_real *row, int type, fp_lnr cu, fp
     return g;
 }
 
+#include "cull_lanes.h"
+
 /* fp_light_bound on lanes. */
 FP_LN_FN fp_lnr fp_ln_bound(FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_real *row,
-                            fp_real sigma_max, fp_lnr one_minus_tau, fp_lnr ox, fp_lnr oy,
+                            fp_lnr sigma_max, fp_lnr one_minus_tau, fp_lnr ox, fp_lnr oy,
                             fp_lnr oz, fp_lnr dx, fp_lnr dy, fp_lnr dz, fp_lnr ta, fp_lnr tb)
 {
     fp_lnr qx = row[FP_LL_POS] - ox, qy = row[FP_LL_POS + 1] - oy, qz = row[FP_LL_POS + 2] - oz;
@@ -323,7 +325,8 @@ FP_LN_FN fp_lnr fp_ln_bound(FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_re
     fp_lnr f = Ds / (Ds - rho);
     f *= f;
     fp_lnr b = fmin(one_minus_tau * f / (Ds * Ds), sigma_max * (th1 - th0) * f / Ds);
-    b *= lt[FP_LT_ALBEDO] * row[FP_LL_IMAX] * lt[FP_LT_PMAX];
+    b *= lt[FP_LT_ALBEDO] * row[FP_LL_IMAX];
+    b *= rho > 0 ? FP_LN(lt[FP_LT_PMAX]) : fp_ln_phase_span(lt, Ds, tc, ta, tb);
     b = miss ? FP_LN(0) : b;
     return near ? FP_LN(FP_INF) : b;
 }

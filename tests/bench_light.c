@@ -323,8 +323,10 @@ static void lamps_section(bench_t *b)
     float *off = malloc(b->n * 4 * sizeof *off);
     if (!off)
         return;
+    double one = NAN, many[FP_ARRAY_LEN(counts)];
     for (size_t ci = 0; ci < FP_ARRAY_LEN(counts); ci++) {
         int n = counts[ci];
+        many[ci] = NAN;
         char **opts = calloc((size_t)n + 8, sizeof *opts);
         int m = 0;
         opts[m++] = strdup("density=0.05");
@@ -383,11 +385,22 @@ static void lamps_section(bench_t *b)
         }
         printf("| %d | %.0f | %.1f | %.0f | %.1f | %.0f | %.2g |\n", n, cpu[1], wall[1], cpu[0],
                wall[0], cpu[1] / n, err);
+        many[ci] = cpu[1];
+        if (n == 1)
+            one = cpu[1];
         for (int k = 0; k < m; k++)
             free(opts[k]);
         free(opts);
     }
     free(off);
+    /* Issue 26's goals: 64 lamps at most 3x, 256 at most 4x one lamp. */
+    printf("\nAgainst one lamp (issue 26's goals: 64 lamps <= 3x, 256 lamps <= 4x the cost of "
+           "one):");
+    for (size_t ci = 1; ci < FP_ARRAY_LEN(counts); ci++)
+        printf(" %d lamps %.1fx%s", counts[ci], many[ci] / one,
+               counts[ci] == 64 ? (many[ci] <= 3 * one ? " (met)" : " (not met)")
+               : counts[ci] == 256 ? (many[ci] <= 4 * one ? " (met)" : " (not met)") : "");
+    printf(".\n");
 }
 
 int main(int argc, char **argv)

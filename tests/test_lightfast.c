@@ -41,7 +41,8 @@ static void test_light_fast(void **state)
                                            fogs[fi][4], fogs[fi][5], "fog-color", "0,0,0",
                                            "phase", phases[pi], "light", lights[li],
                                            "light-quad", exact ? "panels" : "fast",
-                                           "light-panels", "64", "scatter-steps", "128", NULL };
+                                           "light-panels", "64", "scatter-steps", "128",
+                                           "light-cull", "0", NULL };
                     rig_t r;
                     rig_open(&r, opts);
                     fp_test_rng = 88172645463325252ull;

@@ -483,7 +483,8 @@ static void test_cull_bound_holds(void **state)
             double S[3];
             fp_light_ray(r.fog.fp, r.sd.lt, r.sd.lights, l, o[0], o[1], o[2], d[0], d[1], d[2], len,
                          S);
-            double b = fp_light_bound(r.sd.lt, row, fp_light_sigma_max(r.fog.fp), -expm1(-od),
+            double b = fp_light_bound(r.sd.lt, row, fp_light_sigma_span(r.fog.fp, o[1], d[1], ta, tb),
+                                      -expm1(-od),
                                       o[0], o[1], o[2], d[0], d[1], d[2], ta, tb);
             double s = fmax(S[0], fmax(S[1], S[2]));
             if (!(s <= b * (1 + 1e-9) + 1e-15))
