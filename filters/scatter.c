@@ -5,6 +5,7 @@
 #include "seq.h"
 #include "shadowcheck.h"
 #include "shafts.h"
+#include "lamp_shadow.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -353,6 +354,10 @@ const fp_option_t fp_scatter_options[] = {
       "--shadows screen: how far toward the sun the depth buffer is searched for what "
       "shadows a point (scene units), and the thickness assumed behind what it shows "
       "(the old STEPS,DIST,THICK still runs, with a warning)", set_screen_shadow, 0 },
+    { "lamp-shadows", 0, FP_OPT_ENUM, LI(lamp_shadows), 0, 0, "screen", 0, 0, "screen|none",
+      "screen|none", "the point, spot and area lights' shadows in the fog: by walking toward "
+      "each lamp over the camera's depth buffer (screen; --screen-shadow's THICK), or none",
+      NULL, 0 },
     { "self-shadow", 0, FP_OPT_ENUM, LI(self_shadow), 0, 0, "auto", 0, 0, "off|exact|map|auto",
       "off|exact|map|auto",
       "fog shadowing itself: sunlight reaching a point is attenuated by the fog between it "
@@ -557,6 +562,7 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
     if (rc)
         return rc;
     lt[FP_LT_CULL] = l->light_cull;
+    d->lamp_shadows = l->lamp_shadows == FP_LAMP_SHADOWS_SCREEN && lt[FP_LT_NLIGHTS] > 0;
     /* The phase function's largest value: at mu = 1 or -1 for every kind. */
     lt[FP_LT_PMAX] = fmax(fp_phase(l->phase_kind, l->phase_g, l->phase_w, 1),
                           fp_phase(l->phase_kind, l->phase_g, l->phase_w, -1));
@@ -824,8 +830,13 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
 {
     double *lt = d->lt;
     int both = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN;
-    if (!d->active || ((int)lt[FP_LT_SHADOWS] != FP_SHADOWS_SCREEN && !both))
+    /* The lamps' walk (--lamp-shadows) reads the same pyramid, after the
+     * sun's map when there is one. */
+    int lamps = d->lamp_shadows && depth;
+    lt[FP_LT_LS_ON] = 0;
+    if (!d->active || ((int)lt[FP_LT_SHADOWS] != FP_SHADOWS_SCREEN && !both && !lamps))
         return FP_OK;
+    both |= lamps && (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP;
     /* The deepest thing the depth buffer shows: no shadow reaches beyond
      * it (fp_shafts_screen). */
     float view[FP_VIEW_FLOATS];
@@ -865,10 +876,12 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
         }
         memcpy(all, d->smap, nm * sizeof *all);
         memcpy(all + nm, packed, np * sizeof *all);
+        lt[FP_LT_LS_ZOFF] = (double)nm;
         free(packed);
         packed = all;
         np += nm;
     } else {
+        lt[FP_LT_LS_ZOFF] = 0;
         d->smap_w = v->width;
         d->smap_h = v->height;
         lt[FP_LT_SM_W] = v->width;
@@ -881,6 +894,7 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
     lt[FP_LT_SS_PW] = v->width;
     lt[FP_LT_SS_PH] = v->height;
     lt[FP_LT_SS_PLEVELS] = levels;
+    lt[FP_LT_LS_ON] = lamps;
     for (int i = 0; i < 2; i++) {
         lt[FP_LT_SS_NDC + i] = v->ndc_scale[i];
         lt[FP_LT_SS_NDC + 2 + i] = v->ndc_offset[i];
@@ -953,11 +967,15 @@ static double ray_at(const fp_scatter_data_t *d, const double *lt, const fp_inte
                      double S[3])
 {
     const fp_fog_tables_t *t = fog->tables;
-    return fp_scatter_ray_core(fog->fp, TABLES(t), lt, d->lights ? d->lights : no_lights,
-                               d->smap ? d->smap : no_map,
-                               d->grid ? d->grid : no_map, view_packed, depth, v->width,
-                               v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, offset,
-                               S);
+    double tau = fp_scatter_ray_core(fog->fp, TABLES(t), lt, d->lights ? d->lights : no_lights,
+                                     d->smap ? d->smap : no_map,
+                                     d->grid ? d->grid : no_map, view_packed, depth, v->width,
+                                     v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len,
+                                     offset, S);
+    if (view_packed && d->smap)   /* the fast rule's lamps' shadows, as kernel lamp_shadows */
+        fp_ls_fix(fog->fp, lt, d->lights ? d->lights : no_lights, view_packed, d->smap, o[0],
+                  o[1], o[2], dir[0], dir[1], dir[2], len, tau, S);
+    return tau;
 }
 
 static int ensure_grid(const fp_scatter_data_t *d, const fp_integrate_data_t *fog);
@@ -1130,7 +1148,8 @@ int fp_scatter_cl_init(fp_cl_t *cl, fp_scatter_cl_t *s)
     if (fp_cl_program(cl, "scatter", "-cl-std=CL1.2", &prog) ||
         fp_cl_kernel(prog, "scatter_fog", &s->kernel) ||
         fp_cl_kernel(prog, "sun_od_grid", &s->grid_kernel) ||
-        fp_cl_kernel(prog, "scatter_lights", &s->light_kernel))
+        fp_cl_kernel(prog, "scatter_lights", &s->light_kernel) ||
+        fp_cl_kernel(prog, "lamp_shadows", &s->ls_kernel))
         return FP_ERR;
     cl_int err;
     s->lt = clCreateBuffer(fp_cl_context(cl), CL_MEM_READ_ONLY, FP_LT_COUNT * sizeof(float), NULL,
@@ -1242,7 +1261,8 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
         FP_CL_ARG(lk, 6, ic->pix) || FP_CL_ARG(lk, 7, cnpix) || FP_CL_ARG(lk, 8, s->lt) ||
         FP_CL_ARG(lk, 9, s->lights) ||
         fp_cl_check(clEnqueueNDRangeKernel(q, lk, 2, NULL, global, NULL, 0, NULL, NULL),
-                    "scatter_lights"))
+                    "scatter_lights") ||
+        fp_lamp_shadow_cl(s, ic, d, v, pix, npix))
         return FP_ERR;
     size_t nout = cnpix ? npix : (size_t)w * h;
     return fp_cl_check(clEnqueueReadBuffer(q, ic->fog, CL_TRUE, 0, nout * 4 * sizeof(float), out, 0,
@@ -1258,6 +1278,8 @@ void fp_scatter_cl_release(fp_scatter_cl_t *s)
         clReleaseKernel(s->grid_kernel);
     if (s->light_kernel)
         clReleaseKernel(s->light_kernel);
+    if (s->ls_kernel)
+        clReleaseKernel(s->ls_kernel);
     cl_mem *mems[] = { &s->lt, &s->smap, &s->grid, &s->lights };
     for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)
         if (*mems[i])

@@ -73,7 +73,11 @@
 #define FP_LT_SS_PW (FP_LT_GRID_W + 8)
 #define FP_LT_SS_PH (FP_LT_GRID_W + 9)
 #define FP_LT_SS_PLEVELS (FP_LT_GRID_W + 10)
-#define FP_LT_COUNT (FP_LT_GRID_W + 11)
+/* --lamp-shadows screen (kernels/lamp_shadow_core.h): on for this frame,
+ * and where its depth pyramid starts in the shadow-map buffer. */
+#define FP_LT_LS_ON (FP_LT_GRID_W + 11)
+#define FP_LT_LS_ZOFF (FP_LT_GRID_W + 12)
+#define FP_LT_COUNT (FP_LT_GRID_W + 13)
 
 /* The lights: a table of their own (any number: a global buffer in
  * OpenCL), FP_LT_NLIGHTS local lights (point, spot, area) then
