@@ -5,6 +5,7 @@
 #include "seq.h"
 #include "shadowcheck.h"
 #include "shafts.h"
+#include "lamp_shadow.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -170,6 +171,10 @@ const fp_option_t fp_scatter_options[] = {
       "--shadows screen: how far toward the sun the depth buffer is searched for what "
       "shadows a point (scene units), and the thickness assumed behind what it shows "
       "(the old STEPS,DIST,THICK still runs, with a warning)", set_screen_shadow, 0 },
+    { "lamp-shadows", 0, FP_OPT_ENUM, LI(lamp_shadows), 0, 0, "screen", 0, 0, "screen|none",
+      "screen|none", "the point, spot and area lights' shadows in the fog: by walking toward "
+      "each lamp over the camera's depth buffer (screen; --screen-shadow's THICK), or none",
+      NULL, 0 },
     { "self-shadow", 0, FP_OPT_ENUM, LI(self_shadow), 0, 0, "auto", 0, 0, "off|exact|map|auto",
       "off|exact|map|auto",
       "fog shadowing itself: sunlight reaching a point is attenuated by the fog between it "
@@ -301,6 +306,7 @@ int fp_scatter_commit(const fp_params_t *p, fp_scatter_data_t *d)
     if (rc)
         return rc;
     lt[FP_LT_CULL] = l->light_cull;
+    d->lamp_shadows = l->lamp_shadows == FP_LAMP_SHADOWS_SCREEN && lt[FP_LT_NLIGHTS] > 0;
     /* The phase function's largest value: at mu = 1 or -1 for every kind. */
     lt[FP_LT_PMAX] = fmax(fp_phase(l->phase_kind, l->phase_g, l->phase_w, 1),
                           fp_phase(l->phase_kind, l->phase_g, l->phase_w, -1));
@@ -342,11 +348,15 @@ static double ray_at(const fp_scatter_data_t *d, const double *lt, const fp_inte
                      double S[3])
 {
     const fp_fog_tables_t *t = fog->tables;
-    return fp_scatter_ray_core(fog->fp, TABLES(t), lt, d->lights ? d->lights : no_lights,
-                               d->smap ? d->smap : no_map,
-                               d->grid ? d->grid : no_map, view_packed, depth, v->width,
-                               v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len, offset,
-                               S);
+    double tau = fp_scatter_ray_core(fog->fp, TABLES(t), lt, d->lights ? d->lights : no_lights,
+                                     d->smap ? d->smap : no_map,
+                                     d->grid ? d->grid : no_map, view_packed, depth, v->width,
+                                     v->height, o[0], o[1], o[2], dir[0], dir[1], dir[2], len,
+                                     offset, S);
+    if (view_packed && d->smap)   /* the fast rule's lamps' shadows, as kernel lamp_shadows */
+        fp_ls_fix(fog->fp, lt, d->lights ? d->lights : no_lights, view_packed, d->smap, o[0],
+                  o[1], o[2], dir[0], dir[1], dir[2], len, tau, S);
+    return tau;
 }
 
 static int ensure_grid(const fp_scatter_data_t *d, const fp_integrate_data_t *fog);

@@ -13,7 +13,7 @@
 #include "integrate.h"
 #include "params.h"
 
-#define FP_LT_COUNT_ 793   /* kernels/light_core.h FP_LT_COUNT */
+#define FP_LT_COUNT_ 795   /* kernels/light_core.h FP_LT_COUNT */
 #define FP_LL_STRIDE_ 28   /* kernels/light_core.h FP_LL_STRIDE: reals per light */
 
 /* Add a light to the run's (any number, up to FP_MAX_LIGHTS): --light
@@ -57,6 +57,7 @@ typedef struct fp_scatter_data_t {
     size_t grid_n;
     fp_grid_key_t grid_key;   /* what grid holds */
     unsigned long serial;     /* changes when smap or grid change (device copies) */
+    int lamp_shadows;         /* --lamp-shadows screen with local lights: FP_LT_LS_ON per frame */
 } fp_scatter_data_t;
 
 /* Check and pack the light options (fog space).  d->active = 0 when the
@@ -115,7 +116,7 @@ int fp_scatter_pixels(const fp_scatter_data_t *d, const fp_integrate_data_t *fog
 
 typedef struct fp_scatter_cl_t {
     fp_cl_t *cl;
-    cl_kernel kernel, grid_kernel, light_kernel;
+    cl_kernel kernel, grid_kernel, light_kernel, ls_kernel;
     cl_mem lt, smap, grid, lights;
     size_t lights_n;          /* floats the device's light table holds */
     fp_grid_key_t grid_key;   /* what grid holds */

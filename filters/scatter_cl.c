@@ -2,6 +2,7 @@
  * and the buffers they read. */
 #include "scatter_internal.h"
 #include "fp.h"
+#include "lamp_shadow.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -23,7 +24,8 @@ int fp_scatter_cl_init(fp_cl_t *cl, fp_scatter_cl_t *s)
     if (fp_cl_program(cl, "scatter", "-cl-std=CL1.2", &prog) ||
         fp_cl_kernel(prog, "scatter_fog", &s->kernel) ||
         fp_cl_kernel(prog, "sun_od_grid", &s->grid_kernel) ||
-        fp_cl_kernel(prog, "scatter_lights", &s->light_kernel))
+        fp_cl_kernel(prog, "scatter_lights", &s->light_kernel) ||
+        fp_cl_kernel(prog, "lamp_shadows", &s->ls_kernel))
         return FP_ERR;
     cl_int err;
     s->lt = clCreateBuffer(fp_cl_context(cl), CL_MEM_READ_ONLY, FP_LT_COUNT * sizeof(float), NULL,
@@ -135,7 +137,8 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
         FP_CL_ARG(lk, 6, ic->pix) || FP_CL_ARG(lk, 7, cnpix) || FP_CL_ARG(lk, 8, s->lt) ||
         FP_CL_ARG(lk, 9, s->lights) ||
         fp_cl_check(clEnqueueNDRangeKernel(q, lk, 2, NULL, global, NULL, 0, NULL, NULL),
-                    "scatter_lights"))
+                    "scatter_lights") ||
+        fp_lamp_shadow_cl(s, ic, d, v, pix, npix))
         return FP_ERR;
     size_t nout = cnpix ? npix : (size_t)w * h;
     return fp_cl_check(clEnqueueReadBuffer(q, ic->fog, CL_TRUE, 0, nout * 4 * sizeof(float), out, 0,
@@ -151,6 +154,8 @@ void fp_scatter_cl_release(fp_scatter_cl_t *s)
         clReleaseKernel(s->grid_kernel);
     if (s->light_kernel)
         clReleaseKernel(s->light_kernel);
+    if (s->ls_kernel)
+        clReleaseKernel(s->ls_kernel);
     cl_mem *mems[] = { &s->lt, &s->smap, &s->grid, &s->lights };
     for (size_t i = 0; i < FP_ARRAY_LEN(mems); i++)
         if (*mems[i])

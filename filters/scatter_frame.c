@@ -264,8 +264,13 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
 {
     double *lt = d->lt;
     int both = (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN;
-    if (!d->active || ((int)lt[FP_LT_SHADOWS] != FP_SHADOWS_SCREEN && !both))
+    /* The lamps' walk (--lamp-shadows) reads the same pyramid, after the
+     * sun's map when there is one. */
+    int lamps = d->lamp_shadows && depth;
+    lt[FP_LT_LS_ON] = 0;
+    if (!d->active || ((int)lt[FP_LT_SHADOWS] != FP_SHADOWS_SCREEN && !both && !lamps))
         return FP_OK;
+    both |= lamps && (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP;
     /* The deepest thing the depth buffer shows: no shadow reaches beyond
      * it (fp_shafts_screen). */
     float view[FP_VIEW_FLOATS];
@@ -305,10 +310,12 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
         }
         memcpy(all, d->smap, nm * sizeof *all);
         memcpy(all + nm, packed, np * sizeof *all);
+        lt[FP_LT_LS_ZOFF] = (double)nm;
         free(packed);
         packed = all;
         np += nm;
     } else {
+        lt[FP_LT_LS_ZOFF] = 0;
         d->smap_w = v->width;
         d->smap_h = v->height;
         lt[FP_LT_SM_W] = v->width;
@@ -321,6 +328,7 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
     lt[FP_LT_SS_PW] = v->width;
     lt[FP_LT_SS_PH] = v->height;
     lt[FP_LT_SS_PLEVELS] = levels;
+    lt[FP_LT_LS_ON] = lamps;
     for (int i = 0; i < 2; i++) {
         lt[FP_LT_SS_NDC + i] = v->ndc_scale[i];
         lt[FP_LT_SS_NDC + 2 + i] = v->ndc_offset[i];

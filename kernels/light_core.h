@@ -73,8 +73,12 @@
 #define FP_LT_SS_PW (FP_LT_GRID_W + 8)
 #define FP_LT_SS_PH (FP_LT_GRID_W + 9)
 #define FP_LT_SS_PLEVELS (FP_LT_GRID_W + 10)
+/* --lamp-shadows screen (kernels/lamp_shadow_core.h): on for this frame,
+ * and where its depth pyramid starts in the shadow-map buffer. */
+#define FP_LT_LS_ON (FP_LT_GRID_W + 11)
+#define FP_LT_LS_ZOFF (FP_LT_GRID_W + 12)
 /* FP_LT_MS_COUNT: the fast multiple-scattering table (kernels/ms_core.h). */
-#define FP_LT_MS (FP_LT_GRID_W + 11)
+#define FP_LT_MS (FP_LT_GRID_W + 13)
 #define FP_LT_COUNT (FP_LT_MS + 674)
 
 /* The lights: a table of their own (any number: a global buffer in

@@ -60,6 +60,7 @@
 
 #include "fog_core.h"
 #include "light_core.h"
+#include "lamp_shadow_core.h"
 
 /* Layout of the reference's parameter array (filters/reference.c). */
 #define FP_RP_LO 0          /* 3: the grid's lower corner, fog space */
@@ -642,13 +643,14 @@ FP_FN void fp_ref_vertex(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
     }
     int nl = (int)lt[FP_LT_NLIGHTS], nd = (int)lt[FP_LT_NDIR];
     /* Extra directional lights: as the sun, screen shadows under
-     * --shadows screen, never a map. */
+     * --shadows screen and map+screen, never a map. */
     for (int k = nl; k < nl + nd; k++) {
         FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
         fp_real lx = row[FP_LL_POS], ly = row[FP_LL_POS + 1], lz = row[FP_LL_POS + 2];
         fp_real v = fp_phase((int)ph[0], ph[1], ph[2], lx * dx + ly * dy + lz * dz);
-        if (v > 0 && (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN)
-            v *= fp_shadow_screen_dir(lt, lx, ly, lz, view, smap, x, y, z);
+        if (v > 0 && ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN ||
+                      (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN))
+            v *= fp_shadow_screen_dir(lt, lx, ly, lz, view, fp_ss_zpyr(lt, smap), x, y, z);
         if (v > 0 && (int)lt[FP_LT_SELF] != FP_SELF_OFF) {
             fp_real te = fp_ref_fog_end(fp, x, y, z, lx, ly, lz, FP_INF);
             v *= fp_ref_transmittance(fp, lvi, lvf, coef, rp, grid, x, y, z, lx, ly, lz, 0, te, rng);
@@ -669,9 +671,11 @@ FP_FN void fp_ref_vertex(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *l
         }
         if (!(w > 0))
             continue;
+        FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
+        if (lt[FP_LT_LS_ON] != 0 && fp_ls_visible(lt, row, view, smap, x, y, z) == 0)
+            continue;
         fp_real e = w * fp_ref_light(fp, lvi, lvf, coef, lt, lights, rp, grid, k, x, y, z, dx, dy,
                                      dz, rng);
-        FP_GLOBAL const fp_real *row = lights + k * FP_LL_STRIDE;
         J[0] += e * row[FP_LL_I];
         J[1] += e * row[FP_LL_I + 1];
         J[2] += e * row[FP_LL_I + 2];
@@ -793,7 +797,9 @@ FP_FN fp_real fp_ref_sample(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         fp_real x = ox + t * dx, y = oy + t * dy, z = oz + t * dz;
         fp_real sig = fp_sigma_t(fp, lvi, lvf, coef, x, y, z);
         fp_real pe = fp_ref_eq_pdf(&eq, t);
-        if (!(sig > 0) || !(pe > 0) || !isfinite(t))
+        if (!(sig > 0) || !(pe > 0) || !isfinite(t) ||
+            (lt[FP_LT_LS_ON] != 0 &&
+             fp_ls_visible(lt, lights + k * FP_LL_STRIDE, view, smap, x, y, z) == 0))
             continue;
         fp_real q = fp_ref_control_tau(fp, rp, grid, ox, oy, oz, dx, dy, dz, 0, t) * sig;
         fp_real e = fp_ref_light(fp, lvi, lvf, coef, lt, lights, rp, grid, k, x, y, z, dx, dy, dz,

@@ -170,3 +170,26 @@ __kernel void scatter_lights(__global const float *restrict depth,
         o[4 * j + 2] = sb[j];
     }
 }
+
+/* The local lights' screen-space shadows (--lamp-shadows screen,
+ * kernels/lamp_shadow_core.h fp_ls_fix), per pixel after scatter_lights
+ * added the lights unshadowed: each light that reaches the pixel and is
+ * shadowed along its ray gives back what its shadowed stretches held. */
+__kernel void lamp_shadows(__global const float *depth, __global float4 *fog_out,
+                           __constant const float *view, const int width, const int height,
+                           __constant const float *fp, __global const int *pix, const int npix,
+                           __constant const float *lt, __global const float *smap,
+                           __global const float *lights)
+{
+    int x, y, out;
+    if (!fp_work_pixel(pix, npix, width, height, &x, &y, &out))
+        return;
+    int i = y * width + x;
+    float len;
+    float3 dir = fp_view_ray(view, x, y, depth[i], &len);
+    float3 o = fp_view_origin_at(view, x, y);
+    float4 f = fog_out[out];
+    float S[3] = { f.x, f.y, f.z };
+    fp_ls_fix(fp, lt, lights, view, smap, o.x, o.y, o.z, dir.x, dir.y, dir.z, len, f.w, S);
+    fog_out[out] = (float4)(S[0], S[1], S[2], f.w);
+}

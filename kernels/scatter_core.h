@@ -56,7 +56,7 @@ FP_FN int fp_fog_span(FP_CONSTANT const fp_real *fp, fp_real ox, fp_real oy, fp_
 
 /* J at a point: sun (phase value `ph_sun` for this ray), the extra
  * directional lights (lights after the local ones: irradiance, phase
- * toward them, screen shadows under --shadows screen, no shadow map; the
+ * toward them, screen shadows under --shadows screen and map+screen, no map; the
  * fog's own shadow exact, fp_fog_od toward them) and ambient; (dx, dy, dz)
  * the view ray's direction. */
 FP_FN void fp_scatter_source(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int *lvi,
@@ -77,8 +77,9 @@ FP_FN void fp_scatter_source(FP_CONSTANT const fp_real *fp, FP_CONSTANT const in
         fp_real lx = row[FP_LL_POS], ly = row[FP_LL_POS + 1], lz = row[FP_LL_POS + 2];
         fp_real v = fp_phase((int)lt[FP_LT_PHASE], lt[FP_LT_PHASE + 1], lt[FP_LT_PHASE + 2],
                              dx * lx + dy * ly + dz * lz);
-        if (v > 0 && (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN)
-            v *= fp_shadow_screen_dir(lt, lx, ly, lz, view, smap, x, y, z);
+        if (v > 0 && ((int)lt[FP_LT_SHADOWS] == FP_SHADOWS_SCREEN ||
+                      (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN))
+            v *= fp_shadow_screen_dir(lt, lx, ly, lz, view, fp_ss_zpyr(lt, smap), x, y, z);
         if (v > 0 && (int)lt[FP_LT_SELF] != FP_SELF_OFF)
             v *= exp(-fp_fog_od(fp, lvi, lvf, coef, occ, x, y, z, lx, ly, lz, FP_INF, 0));
         if (!(v > 0))
@@ -478,6 +479,8 @@ FP_LFN void fp_light_ray(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_rea
         S[c] = acc * row[FP_LL_I + c];
 }
 
+#include "lamp_shadow_core.h"
+
 /* S += the ambient light's closed form (seed 000 eq. 4) and the local
  * lights of the fast rule (when fast; in OpenCL they run apart), each
  * pixel paying only for the lights that reach it: a light is left out
@@ -781,7 +784,8 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
         int geo = peaked && panels > 1 && es < eb && ea >= 0;
         int first = geo && ea < es;   /* a uniform panel before the geometric ones */
         fp_real ratio = geo ? pow(eb / es, (fp_real)1 / (panels - first)) : 1;
-        fp_real acc = 0;
+        fp_real acc = 0, ls_iv[2 * FP_SS_MAX_IV];   /* the lamp's screen shadows: nodes in them skipped */
+        int ls_n = fp_ls_ray_iv(lt, row, view, smap, ox, oy, oz, dx, dy, dz, ta, tl, ls_iv);
         for (int q = 0; q < panels; q++) {
             fp_real pa, pb;
             if (!geo) {
@@ -800,7 +804,7 @@ FP_FN fp_real fp_scatter_ray_core(FP_CONSTANT const fp_real *fp, FP_CONSTANT con
                 fp_real t = tc + D * tan(th);
                 fp_real px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
                 fp_real sig = fp_sigma_t(fp, lvi, lvf, coef, px, py, pz);
-                if (sig <= 0)
+                if (sig <= 0 || (ls_n && fp_ls_in(ls_iv, ls_n, t)))
                     continue;
                 fp_real vx = row[FP_LL_POS] - px, vy = row[FP_LL_POS + 1] - py,
                         vz = row[FP_LL_POS + 2] - pz;

@@ -35,6 +35,7 @@ typedef struct run_t {
     fp_params_t fq;                  /* what fp points to with a rig */
     fp_rig_file_t *rigfile;          /* --rig FILE */
     uint64_t light_key;              /* what `light` was committed from (fp_rig_light_key) */
+    fp_rig_seen_t light_warned;      /* its commits' warnings, each said once a run */
     int has_rig;                     /* --rig, or the first frame carries a rig */
     fp_exr_select_t sel;
     fp_exr_write_opts_t wopts;
@@ -340,7 +341,7 @@ static int fog_composite(run_t *r, const fp_camera_t *cam, const fp_frame_info_t
 /* fp_scatter_commit for a frame: its messages (about the options and the
  * rig together) name the file and the frame. */
 static int commit_light(const fp_params_t *q, const char *in_name, long frame,
-                        fp_scatter_data_t *d)
+                        fp_scatter_data_t *d, fp_rig_seen_t *warned)
 {
     fp_msgbuf_t kept = { NULL, 0, 0 };
     fp_msgbuf_t *prev = fp_msg_capture(&kept);
@@ -355,9 +356,10 @@ static int commit_light(const fp_params_t *q, const char *in_name, long frame,
             line += 9;
             n -= 9;
         }
-        if (n >= 9 && strncmp(line, "warning: ", 9) == 0)
-            fp_warn("%s: frame %ld: %.*s", in_name, frame, n - 9, line + 9);
-        else if (rc && !said++)
+        if (n >= 9 && strncmp(line, "warning: ", 9) == 0) {
+            if (!fp_rig_seen(warned, line + 9, n - 9))
+                fp_warn("%s: frame %ld: %.*s", in_name, frame, n - 9, line + 9);
+        } else if (rc && !said++)
             fp_error("%s: frame %ld: %.*s (with the rig the frame carries)", in_name, frame, n,
                      line);
     }
@@ -383,7 +385,7 @@ static int frame_params(run_t *r, const fp_rig_t *rig, const char *in_name, long
     if (key == r->light_key || r->p->cmd.print_camera)
         return FP_OK;
     fp_scatter_data_t d;
-    if ((rc = commit_light(r->fp, in_name, frame, &d)))
+    if ((rc = commit_light(r->fp, in_name, frame, &d, &r->light_warned)))
         return rc;
     fp_scatter_release(&r->light);
     r->light = d;

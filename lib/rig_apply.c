@@ -302,6 +302,18 @@ static void mixd(uint64_t *h, const double *v, int n)
     }
 }
 
+int fp_rig_seen(fp_rig_seen_t *s, const char *text, int len)
+{
+    uint64_t h = 0xcbf29ce484222325ULL;
+    mix(&h, text, (size_t)len);
+    for (int i = 0; i < s->n; i++)
+        if (s->h[i] == h)
+            return 1;
+    if (s->n < FP_RIG_SEEN_MAX)
+        s->h[s->n++] = h;
+    return 0;
+}
+
 uint64_t fp_rig_light_key(const fp_params_t *q)
 {
     uint64_t h = 0xcbf29ce484222325ULL;

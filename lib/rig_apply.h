@@ -43,6 +43,16 @@ void fp_rig_params_release(fp_params_t *q);
  * map, up): equal keys, the same commit. */
 uint64_t fp_rig_light_key(const fp_params_t *q);
 
+/* The warnings of the light stage's commits, one per change of the rig
+ * (an animated lamp): each said once a run.  fp_rig_seen returns 1 when
+ * the text was seen before, else records it (up to FP_RIG_SEEN_MAX). */
+#define FP_RIG_SEEN_MAX 32
+typedef struct fp_rig_seen_t {
+    uint64_t h[FP_RIG_SEEN_MAX];
+    int n;
+} fp_rig_seen_t;
+int fp_rig_seen(fp_rig_seen_t *s, const char *text, int len);
+
 /* --print-camera: the rig understood for the frame, after the flags. */
 void fp_rig_print(FILE *out, const fp_rig_t *rig, const fp_params_t *q);
 

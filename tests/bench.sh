@@ -24,6 +24,7 @@ trap 'rm -rf "$tmp"' EXIT
   "$FP_BENCH_FOGMAP" "$tmp/hd/scene.0001.exr" "$tmp/seed/scene.0001.exr"
   echo
   "$FP_BENCH_LIGHT" "$tmp/light/scene.0001.exr" "$tmp/light/shadow.0001.exr" "$tmp/light/fogmap.exr"
+  [ -z "${FP_BENCH_LAMP_SHADOW:-}" ] || "$FP_BENCH_LAMP_SHADOW" "$tmp/light/scene.0001.exr"
   echo
   "$FP_BENCH_LOOKS" "$tmp/hd" "$tmp/looks" && echo   # issue 12: the looks against their goals
   # Issue 12 (b): --lod-bound on the looks' 4096x4096 map against the 64x64.

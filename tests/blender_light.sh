@@ -26,13 +26,18 @@
 # no light, shadow, up or clip option, only the medium's: the plate's rig
 # from the add-on, samples/blender/fogpipe_blender.py, carries the suns,
 # lights, up axis, Blender's default clip start 0.1 m and the sun's map,
-# the script's sunmap.0001.exr whose camera fogpipe reads from its Note;
-# then, per frame, the lights --print-camera shows from the rig must be
+# the add-on's own (its operator, `-- --fogpipe-shadow-maps`' code: one map
+# per frame fitted to the fog the camera sees, fogpipe/sun.####.exr beside
+# the plate) whose camera fogpipe reads from its Note; then, per frame, the lights --print-camera shows from the rig must be
 # light_truth.py's, tests/blender/light_rig.awk) or "truth" (the options
 # light_truth.py computed from Blender's lights, --up z, and the sun's map
 # with worldToCamera/worldToNDC copied from its Note into typed header
 # attributes; the camera's clip start 1e-4 m).  FP_BLENDER_ADDON: the
-# add-on to render with.  Skips when blender is not installed.
+# add-on to render with.  FP_LIGHT_PROFILES: the media (default "homog
+# height"); FP_LIGHT_SCENE: more of light_scene.py's options (e.g.
+# tests/blender_lamps.sh's lamps=behind); FP_LIGHT_WRONG: one more wrong
+# fogpipe option the comparison must catch.  Skips when blender is not
+# installed.
 . "${FP_SRCDIR:-.}/tests/lib.sh"
 BLENDER=${BLENDER:-blender}
 if ! command -v "$BLENDER" >/dev/null 2>&1; then
@@ -54,9 +59,10 @@ MAXRMS=2.5
 # With the lights from the frame the plate's rig names the script's own
 # sun map (shadow=, relative to the plate).
 case $FP_LIGHT_FLAGS in
-  truth) CLIP=1e-4 SHADOW= ;;
-  *) CLIP=0.1 SHADOW=shadow=sunmap.0001.exr ;;
+  truth) CLIP=1e-4 SHADOW= MAPRE= ;;
+  *) CLIP=0.1 SHADOW=addonmap=1 MAPRE='fogpipe/sun\.[0-9]*\.exr (rig)' ;;
 esac
+SHADOW="$SHADOW ${FP_LIGHT_SCENE:-}"
 
 # light_flags DIR FRAME: fogpipe's options for the lights, shadows and up
 # axis of DIR's frame, the one place that says where they come from.
@@ -110,8 +116,8 @@ fog_frame() {
 rig_lights() {
   "$FOGPIPE" --print-camera -i "$1/plate.####.exr" --frames "$2" > "$1/rig.$2.txt" 2>&1 ||
     { cat "$1/rig.$2.txt"; return 1; }
-  grep -q "^ *shadow map .*sunmap.0001.exr (rig)" "$1/rig.$2.txt" ||
-    { echo "MISS the rig names no sunmap.0001.exr:"; cat "$1/rig.$2.txt"; return 1; }
+  grep -q "^ *shadow map .*$MAPRE" "$1/rig.$2.txt" ||
+    { echo "MISS the rig names not the add-on's map:"; cat "$1/rig.$2.txt"; return 1; }
   { grep "^flags $2 " "$1/truth.$(printf %04d "$2").txt"; cat "$1/rig.$2.txt"; } |
     awk -v clip="$CLIP" -f "$TB/light_rig.awk" - || { cat "$1/rig.$2.txt"; return 1; }
 }
@@ -148,7 +154,7 @@ map_texels() {
   [ $n -gt 0 ] && [ $bad = 0 ]
 }
 
-for prof in homog height; do
+for prof in ${FP_LIGHT_PROFILES:-homog height}; do
   D="$T/$prof"
   case $prof in homog) SAMPLES=$SAMPLES_homog ;; *) SAMPLES=$SAMPLES_height ;; esac
   check "$prof: Cycles renders the plate, its fog (single scattering, 2 seeds x $SAMPLES samples) and the sun's map" \
@@ -183,7 +189,7 @@ D="$T/homog"
 SIGMA2=$(awk '{ print 2 * $2 }' "$D/scene.txt" 2>/dev/null)
 WRONG_LIGHT="--sun-intensity 5"
 [ "$FP_LIGHT_FLAGS" = truth ] || WRONG_LIGHT="--lights none"
-for wrong in "--density $SIGMA2" "$WRONG_LIGHT"; do
+for wrong in "--density $SIGMA2" "$WRONG_LIGHT" ${FP_LIGHT_WRONG:+"$FP_LIGHT_WRONG"}; do
   name=wrong$(echo "$wrong" | tr -dc '[:lower:]')
   # shellcheck disable=SC2086 # $wrong: an option and its value
   if fog_frame "$D" 1 "$name" $wrong > "$T/out.txt" 2>&1; then

@@ -150,6 +150,15 @@ check "... frame 1 by frame 1's" sh -c '"$1" -i "$2" -o "$3" --density 0.06 --he
   --light point:0,2,5:10,8,6:1 && "$4" -q -fail 0 "$3" "$5"' \
   sh "$FOGPIPE" "$S/scene.0001.exr" "$T/anim/f1.exr" "$IDIFF" "$T/anim/o.0001.exr"
 
+# A warning of the light stage is said once a run, not once per rig change
+# (each frame commits the light again): fog without a top under the rig's sun.
+note "$T/anim/w.0001.exr" "$S/scene.0001.exr" "$SUN point 0 2 5 10 8 6 0"
+note "$T/anim/w.0002.exr" "$S/scene.0002.exr" "$SUN point 3 1 2 2 8 16 0"
+check "a light stage warning once a run, however often the rig changes" sh -c '
+  "$1" -i "$2" -o "$3" --cpu --density 0.06 --height 0,inf --progress off 2> "$4" &&
+  [ "$(grep -c "has no top" "$4")" = 1 ] || { cat "$4"; exit 1; }' \
+  sh "$FOGPIPE" "$T/anim/w.####.exr" "$T/anim/w.o.####.exr" "$T/anim/w.log"
+
 # A single file's frame number: from its name, --frame over it.
 cp "$P" "$T/shot.0002.exr"
 check "a single file's frame number from its name" sh -c '"$1" --print-camera -i "$2" | grep -q "shot.0002.exr: frame 2: camera"' \

@@ -278,7 +278,7 @@ static void test_lights_single(void **state)
     snprintf(sl, sizeof sl, "spot:%g,%g,%g:1,1,1:60:%g,%g,%g:20,35", Q[0], Q[1], Q[2], A0[0],
              A0[1], A0[2]);
     const char *const opts[] = { "density", "0.05", "height", "0,inf", "fog-color", "0,0,0",
-                                 "light", pl, "light", sl, NULL };
+                                 "light", pl, "light", sl, "lamp-shadows", "none", NULL };
     scene_t sc;
     scene_make(&sc, 8, 6, 1.5, 5, 10, 0, opts);   /* no sky */
     size_t n = (size_t)sc.w * sc.h;

@@ -105,6 +105,7 @@ typedef struct fp_animate_params_t {
  * filters/scatter.h); FP_MAX_LIGHTS only bounds what one run may hold. */
 #define FP_MAX_LIGHTS 65536
 enum { FP_LIGHTS_FRAME = 0, FP_LIGHTS_NONE = 1 };
+enum { FP_LAMP_SHADOWS_SCREEN = 0, FP_LAMP_SHADOWS_NONE };
 enum { FP_SHADOWS_AUTO = 0, FP_SHADOWS_OFF, FP_SHADOWS_WITH_MAP, FP_SHADOWS_WITH_SCREEN,
        FP_SHADOWS_WITH_MAP_SCREEN };
 enum { FP_SELF_SHADOW_OFF = 0, FP_SELF_SHADOW_EXACT, FP_SELF_SHADOW_MAP, FP_SELF_SHADOW_AUTO };
@@ -147,6 +148,7 @@ typedef struct fp_light_params_t {
     double shadow_bias;   /* scene units, added to each texel's own */
     int shadow_filter;    /* edge ramps, texels each side (0: hard) */
     double screen_shadow[2]; /* distance, thickness */
+    int lamp_shadows;     /* FP_LAMP_SHADOWS_*: local lights' screen-space shadows */
     int self_shadow;      /* FP_SELF_SHADOW_* */
     double self_shadow_grid[3];
     int self_shadow_cascades;

@@ -2,7 +2,16 @@
 # fogpipe to match.
 #   blender -b --factory-startup -noaudio -P fogpipe_blender.py -P tests/blender/light_truth.py \
 #     -P tests/blender/light_scene.py -- OUTDIR SAMPLES PROFILE [map=768] [clip=1e-4] \
-#     [lights=sun,point,spot] [last=3] [shadow=PATH]
+#     [lights=sun,point,spot] [last=3] [shadow=PATH] [lamps=behind] [addonmap=1]
+# lamps=behind (tests/blender_lamps.sh): the point light behind the
+# thickest pillar and the spot behind the wall, shining through its slit
+# at x = 1 toward the camera: the shadow volumes of the pillar and the
+# wall in view.
+# addonmap=1: the sun's maps are the add-on's own (its Render Sun Shadow
+# Maps operator, shadow_maps_for as `-- --fogpipe-shadow-maps`: fitted to
+# the fog the camera sees, per frame, OUTDIR/fogpipe/sun.####.exr),
+# recorded in every frame's rig; the script's sunmap.0001.exr is rendered
+# as well (its known texels).
 # shadow=PATH: the plate's rig names PATH (from OUTDIR; e.g. the script's
 # own map, sunmap.0001.exr) as the sun's shadow map of every frame (the
 # add-on's static map setting), so fogpipe finds it with no flag.
@@ -55,10 +64,11 @@
 #     short;
 #   - the local lights cast shadows: with Cast Shadow off Cycles also
 #     skips the fog between the light and the point (31% more light from
-#     the point than fogpipe's); fogpipe's local lights have no shadows of
-#     the geometry, so the point stands where what the pillars shadow
-#     from it is mostly hidden from the camera, and no geometry is in the
-#     spot's cone.
+#     the point than fogpipe's); fogpipe shadows its local lights by the
+#     geometry the depth buffer shows (--lamp-shadows screen), so by
+#     default the point stands where what the pillars shadow from it is
+#     mostly hidden from the camera and no geometry is in the spot's cone,
+#     and lamps=behind puts both behind casters the camera sees.
 import math
 import os
 import sys
@@ -155,6 +165,12 @@ spot_data.spot_blend = 0.15
 spot = bpy.data.objects.new("spot", spot_data)
 spot.location = (2.0, -0.5, 3.6)
 spot.rotation_euler = (Vector((2.4, 1.2, 0.0)) - spot.location).to_track_quat('-Z', 'Y').to_euler()
+if opt.get("lamps") == "behind":
+    point.location = (-2.1, 3.4, 1.8)
+    spot.location = (1.0, 7.0, 2.2)
+    spot_data.spot_size = math.radians(50.0)
+    spot.rotation_euler = (Vector((1.0, -7.0, 1.2)) - spot.location).to_track_quat(
+        '-Z', 'Y').to_euler()
 for o in (sun, point, spot):
     scene.collection.objects.link(o)
     o.hide_render = only is not None and o.name not in only
@@ -289,8 +305,16 @@ c.samples = 1
 if "shadow" in opt:
     fs = scene.fogpipe
     fs.shadow_maps, fs.shadow_static, fs.shadow_path = True, True, opt["shadow"]
+if opt.get("addonmap") == "1":
+    # The add-on's maps over the fog the camera sees (to 22 m: the box's
+    # far corner), texel = its default thinnest caster / 8.
+    r.filepath = os.path.join(outdir, "plate.####")
+    fs = scene.fogpipe
+    fs.shadow_static, fs.shadow_path, fs.shadow_distance = False, "fogpipe/sun.####.exr", 22.0
+    if bpy.ops.fogpipe.shadow_maps(frames="1-%d" % last_frame) != {'FINISHED'}:
+        sys.exit("fogpipe: the add-on rendered no shadow map")
 render("plate", fmt='OPEN_EXR_MULTILAYER')
-if "shadow" in opt:
+if "shadow" in opt or opt.get("addonmap") == "1":
     scene.fogpipe.shadow_maps = False
 # Cycles' fog in two parts that add up to it (light is additive): the
 # plate seen through the fog, and the fog's in-scattered light.
