@@ -34,13 +34,17 @@ for fog in thin:0.025 dense:0.1; do
   diag "$T/$name.txt"
   # The fast path (no fog color: --fog-color auto, --multiple-scattering
   # auto) on the same frame: bias and 8x8-block rms against Cycles' whole
-  # fog light (tests/blender/msfast_compare.py); and with the fast path
-  # off the same check must miss.
+  # fog light (tests/blender/msfast_compare.py); and single scattering
+  # alone (off, fog color 0) must miss.
   opts=$(sed 's/--fog-color [^ ]*//' "$T/$name/scene.txt")
+  : > "$T/$name-fast.txt"
   for ms in auto off; do
+    color=auto
+    [ "$ms" = off ] && color=0,0,0
     # shellcheck disable=SC2086 # the options are words
     nice -n 19 "$FOGPIPE" -q -i "$T/$name/plate.####.exr" -o "$T/$name/fast-$ms.####.exr" \
-      --frames 1 $opts --multiple-scattering "$ms" --float > "$T/$name-fast.txt" 2>&1 || true
+      --frames 1 $opts --multiple-scattering "$ms" --fog-color "$color" --float \
+      >> "$T/$name-fast.txt" 2>&1 || true
     python3 "$FP_SRCDIR/tests/blender/msfast_compare.py" "$T/$name/ms1.0001.exr" \
       "$T/$name/ms2.0001.exr" "$T/$name/fast-$ms.0001.exr" 0.02 3 >> "$T/$name-fast.txt" 2>&1
     st=$?
