@@ -52,7 +52,10 @@ static inline float next_up(float x)
 }
 
 /* Levels 1..nl of p (after its w x h level 0): min and max per block. */
-static void build_levels(float *p, int w, int h, int nl)
+/* finite_max: a block's largest finite value (+inf: none in it), for
+ * the depth buffer's walk, where +inf (sky) is no cell at all: a block of
+ * sky and geometry then bounds its cells' z, not [zmin, inf). */
+static void build_levels(float *p, int w, int h, int nl, int finite_max)
 {
     size_t off = (size_t)w * h, prev = 0;
     int pw = w, ph = h;
@@ -73,7 +76,7 @@ static void build_levels(float *p, int w, int h, int nl)
                         hi = p[prev + 2 * ((size_t)b * pw + a) + 1];
                     }
                     mn = lo < mn ? lo : mn;
-                    mx = hi > mx ? hi : mx;
+                    mx = hi > mx && (!finite_max || hi < INFINITY) ? hi : mx;
                 }
                 p[off + 2 * ((size_t)j * lw + i)] = mn;
                 p[off + 2 * ((size_t)j * lw + i) + 1] = mx;
@@ -108,7 +111,7 @@ int fp_shafts_pyramid(const float *z, int w, int h, float **out, size_t *n, int 
         return -1;
     for (size_t i = 0; i < (size_t)w * h; i++)
         p[i] = isnan(z[i]) ? INFINITY : z[i];
-    build_levels(p, w, h, nl);
+    build_levels(p, w, h, nl, 1);
     *out = p;
     *n = total;
     *levels = nl;
@@ -142,7 +145,7 @@ int fp_shafts_build(const float *z, int w, int h, double max_slope_bias, double 
             p[(size_t)j * w + i] = next_up((float)(c + b));
         }
     }
-    build_levels(p, w, h, nl);
+    build_levels(p, w, h, nl, 0);
     *out = p;
     *n = total;
     *levels = nl;
