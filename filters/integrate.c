@@ -1,6 +1,5 @@
 #include "integrate.h"
 #include "fp.h"
-#include "ms.h"
 #include "options.h"
 
 #include <math.h>
@@ -29,6 +28,34 @@ static int set_visibility(fp_params_t *p, const fp_option_t *o, const char *valu
 }
 
 #define FOG(f) offsetof(fp_params_t, fog.f)
+/* --fog-color R,G,B | auto (auto: derived per frame, filters/ms.c fp_ms_frame;
+ * without a sun the look's old constant stays). */
+static int set_fog_color(fp_params_t *p, const fp_option_t *o, const char *value)
+{
+    static const double def[3] = { 0.7, 0.75, 0.8 };
+    if (value && strcmp(value, "auto") == 0) {
+        /* Derived per frame (fp_ms_frame); without a sun this look's old
+         * constant stays. */
+        memcpy(p->fog.color, def, sizeof def);
+        p->ms.color_typed = 0;
+        return FP_OK;
+    }
+    double v[3];
+    const char *s = value ? value : "";
+    char *end;
+    for (int i = 0; i < 3; i++) {
+        v[i] = strtod(s, &end);
+        if (end == s || !(v[i] >= o->min && v[i] <= o->max) ||
+            (i < 2 ? *end != ',' : *end != 0))
+            return fp_usage_error("--%s: expected R,G,B (three reals in [0, %g]) or auto, "
+                                  "got '%s'", o->name, o->max, s == value ? value : value);
+        s = end + 1;
+    }
+    memcpy(p->fog.color, v, sizeof v);
+    p->ms.color_typed = 1;
+    return FP_OK;
+}
+
 const fp_option_t fp_integrate_options[] = {
     { "density", 0, FP_OPT_REAL, FOG(density), 0, 0, "0.02", 0, 1e6, NULL, "SIGMA",
       "extinction per scene unit at the base of the fog (times the fogmap's value with "
@@ -50,7 +77,7 @@ const fp_option_t fp_integrate_options[] = {
       "(--working-space); auto: derived from the sun and the fog (0 with "
       "--multiple-scattering on, which then carries that light; the column's mean "
       "multiply scattered light with it off; 0.7,0.75,0.8 without a sun)",
-      fp_ms_set_fog_color, 0 },
+      set_fog_color, 0 },
     { "fog-box", 0, FP_OPT_VEC, FOG(box), 6, 6, "-inf,-inf,-inf,inf,inf,inf", -INFINITY,
       INFINITY, NULL, "X0,Y0,Z0,X1,Y1,Z1",
       "no fog outside this box: world axes, in the fog's own frame (it moves and turns with "

@@ -29,32 +29,6 @@ const fp_option_t fp_ms_options[] = {
     FP_OPT_END
 };
 
-int fp_ms_set_fog_color(fp_params_t *p, const fp_option_t *o, const char *value)
-{
-    static const double def[3] = { 0.7, 0.75, 0.8 };
-    if (value && strcmp(value, "auto") == 0) {
-        /* Derived per frame (fp_ms_frame); without a sun this look's old
-         * constant stays. */
-        memcpy(p->fog.color, def, sizeof def);
-        p->ms.color_typed = 0;
-        return FP_OK;
-    }
-    double v[3];
-    const char *s = value ? value : "";
-    char *end;
-    for (int i = 0; i < 3; i++) {
-        v[i] = strtod(s, &end);
-        if (end == s || !(v[i] >= o->min && v[i] <= o->max) ||
-            (i < 2 ? *end != ',' : *end != 0))
-            return fp_usage_error("--%s: expected R,G,B (three reals in [0, %g]) or auto, "
-                                  "got '%s'", o->name, o->max, s == value ? value : value);
-        s = end + 1;
-    }
-    memcpy(p->fog.color, v, sizeof v);
-    p->ms.color_typed = 1;
-    return FP_OK;
-}
-
 double fp_ms_mean_cosine(int kind, double g, double w)
 {
     /* Cornette-Shanks: <mu> = 3 g (4 + g^2) / (5 (2 + g^2)); Rayleigh 0. */

@@ -16,10 +16,6 @@
 
 extern const fp_option_t fp_ms_options[];
 
-/* --fog-color's parser: R,G,B (typed: the user's ambient radiance) or
- * "auto" (p->ms.color_typed = 0: derived, fp_ms_frame). */
-int fp_ms_set_fog_color(fp_params_t *p, const fp_option_t *o, const char *value);
-
 /* The plane-parallel problem: the fog's extinction profile from `fp`
  * (FP_F_*, fog space: the main fog between its box's floor and top, the
  * haze; the box's sides bound it), albedo, the phase function's mean

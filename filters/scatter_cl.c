@@ -1,6 +1,7 @@
 /* The scatter stage on an OpenCL device: kernels/scatter.cl's launches
  * and the buffers they read. */
-#include "scatter_internal.h"
+#include "scatter.h"
+#include "options.h"
 #include "fp.h"
 #include "lamp_shadow.h"
 

@@ -1,6 +1,7 @@
 /* The scatter stage per frame: the sun's shadow map, the depth buffer the
  * screen-space walk reads, the self-shadow grid's cascades. */
-#include "scatter_internal.h"
+#include "scatter.h"
+#include "options.h"
 #include "exrio.h"
 #include "fp.h"
 #include "ms.h"

@@ -27,6 +27,14 @@
 #ifndef FP_CULL_CORE_H
 #define FP_CULL_CORE_H
 
+/* The largest extinction fog without a fogmap can have (its height
+ * profiles are at most 1); +inf with a fogmap (not bounded here). */
+FP_FN fp_real fp_light_sigma_max(FP_CONSTANT const fp_real *fp)
+{
+    return fp[FP_F_HAS_MAP] != 0 ? (fp_real)FP_INF
+                                 : fmax(fp[FP_F_SIGMA], (fp_real)0) + fmax(fp[FP_F_HAZE], (fp_real)0);
+}
+
 /* A height profile's value at y: non-increasing in y (1 at y = -inf). */
 FP_FN fp_real fp_cull_height(fp_real y, fp_real y0, fp_real H, fp_real top)
 {

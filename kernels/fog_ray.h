@@ -6,6 +6,9 @@
 #ifndef FP_FOG_RAY_H
 #define FP_FOG_RAY_H
 
+#include "fog_params.h"
+#include "fogmap_walk.h"
+
 FP_FN fp_real fp_h(FP_CONSTANT const fp_real *fp, fp_real y)
 {
     if (y >= fp[FP_F_TOP])

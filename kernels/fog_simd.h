@@ -3,6 +3,9 @@
 #ifndef FP_FOG_SIMD_H
 #define FP_FOG_SIMD_H
 
+#include "fog_params.h"
+#include "fog_ray.h"
+
 /* The no-fogmap path without branches: fp_slab, fp_height_od, fp_clip and
  * the homogeneous branch of fp_fog_od on FP_SIMD rays at once (OpenCL:
  * float16 lanes, one work-item computing 16 pixels; C: one ray in double),

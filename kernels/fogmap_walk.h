@@ -7,6 +7,8 @@
 #ifndef FP_FOGMAP_WALK_H
 #define FP_FOGMAP_WALK_H
 
+#include "fog_params.h"
+
 /* ------------------------------------------------------------------ */
 /* One walk per ray.  The sum of levels 0..l of the deconstructed fogmap,
  * A_l, is itself one B-spline surface on level l's grid (each coarser

@@ -812,14 +812,6 @@ FP_FN fp_real fp_light_gain(FP_GLOBAL const fp_real *row, fp_real ux, fp_real uy
     return fp_light_gain_cos(row, c, ux, uy, uz, r);
 }
 
-/* The largest extinction fog without a fogmap can have (its height
- * profiles are at most 1); +inf with a fogmap (not bounded here). */
-FP_FN fp_real fp_light_sigma_max(FP_CONSTANT const fp_real *fp)
-{
-    return fp[FP_F_HAS_MAP] != 0 ? (fp_real)FP_INF
-                                 : fmax(fp[FP_F_SIGMA], (fp_real)0) + fmax(fp[FP_F_HAZE], (fp_real)0);
-}
-
 #include "cull_core.h"
 
 /* Culling (--light-cull): the most local light `row` can add to any

@@ -10,6 +10,7 @@
 #define FP_LIGHTS_APART
 #include "scatter_core.h"
 #include "scatter_lanes.h"
+#include "lamp_shadow_fix.h"
 
 /* Per pixel (of the frame or of a list, fp_work_pixel): S.rgb and tau. */
 __kernel void scatter_fog(__global const float *depth, __global float4 *fog_out,

@@ -737,7 +737,7 @@ void fp_options_free(fp_params_t *p)
                 free(*s);
                 *s = NULL;
             }
-    /* The lights (fp_light_append, filters/lights.c). */
+    /* The lights (fp_light_append, filters/scatter.c). */
     free(p->light.lights);
     p->light.lights = NULL;
     p->light.num_lights = p->light.cap_lights = 0;

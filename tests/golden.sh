@@ -26,6 +26,7 @@ fogmap-cubic|$FM --basis cubic --haze 0.002
 preset-mist|--preset $P/morning-valley-mist.preset --shadow-map $FP_SAMPLES/shadow.####.exr
 preset-shafts|--preset $P/low-sun-shafts.preset --shadow-map $FP_SAMPLES/shadow.####.exr
 preset-lamps|--preset $P/night-street-lamps.preset
+lamps-shadowed|--preset $P/night-street-lamps.preset --lamp-shadows screen
 buffers|--preset $P/low-sun-shafts.preset --shadow-map $FP_SAMPLES/shadow.####.exr --fog-resolution 1/2 --blur bilateral --blur-radius 3 --blur-falloff 4"
 names=$(echo "$cases" | cut -d'|' -f1)
 

@@ -117,7 +117,7 @@ enum { FP_LIGHT_QUAD_FAST = 0, FP_LIGHT_QUAD_PANELS };
  * map); position, color, intensity (the scalar multiplier of color: W/sr
  * for point and spot, W/sr along the normal for area), spot axis, inner
  * and outer cone half-angles (degrees, spot_profile 0).  The fields after
- * `outer` are issue 23's (filters/lights.c gives them their meaning). */
+ * `outer` are issue 23's (filters/scatter.c gives them their meaning). */
 typedef struct fp_light_t {
     int kind;
     double pos[3], color[3], intensity, axis[3], inner, outer;

@@ -533,7 +533,7 @@ static void chan_check(const fp_camera_params_t *cp, const fp_frame_info_t *info
     if (!msg[0] || !fp_once(&chan_warned))
         return;
     fp_warn("%s: frame %ld: camera file %s: %s (Blender's .chan export: --chan-order xyz, "
-            "--chan-sensor W,H; see README 'From Nuke')", where_file, frame, cp->chan, msg);
+            "--chan-sensor W,H; see doc/hosts/nuke.md)", where_file, frame, cp->chan, msg);
 }
 
 int fp_camera_matrices(const fp_frame_info_t *info, const char *where_file, long frame,
