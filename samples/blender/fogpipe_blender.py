@@ -224,7 +224,7 @@ def look_text(s):
         phase += ":%s,%s" % (num(s.phase_w), num(s.phase_g))
     parts = ["density=" + num(s.density),
              "height=" + ",".join(num(x) for x in h),
-             "fog-color=" + ",".join(num(c) for c in s.fog_color),
+             "fog-color=" + ("auto" if s.fog_color_auto else ",".join(num(c) for c in s.fog_color)),
              "phase=" + phase,
              "albedo=" + num(s.albedo)]
     if s.use_box:
@@ -886,6 +886,9 @@ class FogpipeSettings(bpy.types.PropertyGroup):
     homogeneous: B(name="Homogeneous", default=False, description="H = inf")
     use_top: B(name="Top", default=False, description="no fog above TOP")
     height_top: F(name="Top", default=50.0, unit='LENGTH', description="--height TOP")
+    fog_color_auto: B(name="Auto", default=True,
+                      description="--fog-color auto: the ambient light from the sun and the fog "
+                                  "(multiple scattering); off: the typed color below")
     fog_color: V(name="Fog Color", subtype='COLOR', size=3, default=(0.7, 0.75, 0.8), min=0.0,
                  max=1e6, description="--fog-color (scene-linear)")
     phase: bpy.props.EnumProperty(name="Phase", items=PHASES, default='iso', description="--phase")
@@ -931,7 +934,7 @@ class FOGPIPE_PT_panel(bpy.types.Panel):
         col = layout.box().column()
         col.prop(s, "use_look")
         rows = [("density",), ("height_base", "height_scale"), ("homogeneous", "use_top",
-                "height_top"), ("fog_color",), ("phase",) + (("phase_w",) if s.phase in (
+                "height_top"), ("fog_color_auto",) + (() if s.fog_color_auto else ("fog_color",)), ("phase",) + (("phase_w",) if s.phase in (
                     'mix', 'mixhg') else ()) + (("phase_g",) if s.phase not in (
                         'iso', 'rayleigh') else ()), ("albedo",), ("use_box",)]
         if s.use_box:

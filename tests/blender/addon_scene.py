@@ -95,6 +95,7 @@ def make_scene(sc, name, fmt='OPEN_EXR_MULTILAYER', zpass=True, frames=(1, 1)):
     s.use_look = True
     s.density = 0.05
     s.height_base, s.height_scale, s.use_top, s.height_top = 0.0, 4.0, True, 12.0
+    s.fog_color_auto = False
     s.fog_color = (0.6, 0.65, 0.7)
     s.phase, s.phase_g = 'hg', 0.5
     s.albedo = 0.8
