@@ -5,7 +5,7 @@
 # rolling, zooming, lens shift) for each sensor fit (AUTO, VERTICAL on a
 # landscape frame, HORIZONTAL on a portrait frame) and an orthographic
 # camera (its rays parallel, starting on the camera's plane); each is rendered (64x48, 1 sample, frames 1-3) the way a user
-# would, `blender -b shot.blend -P samples/blender/fogpipe_blender.py -a`,
+# would, `blender -b shot.blend -P samples/blender/fogpipe_blender/__init__.py -a`,
 # with tests/blender/truth.py writing Blender's own camera and ray casts of
 # the same run.  Then, on every frame:
 #   - `fogpipe --print-camera --up z` equals Blender's camera (position,
@@ -36,7 +36,7 @@ if ! command -v "$BLENDER" >/dev/null 2>&1; then
   finish
   exit $?
 fi
-ADDON="$FP_SRCDIR/samples/blender/fogpipe_blender.py"
+ADDON="$FP_SRCDIR/samples/blender/fogpipe_blender/__init__.py"
 TB="$FP_SRCDIR/tests/blender"
 SIGMA=0.2
 HSCALE=2
@@ -164,8 +164,9 @@ else
 fi
 grep "^absorb: " "$T/absorb/auto/wrong.txt" 2>/dev/null | diag
 
-# The same file installed and enabled as an add-on (in a scripts folder of
-# the test's own), no -P: frame 2 of the auto scene carries its camera.
+# The add-on installed as users do (Install... the zip make builds, into a
+# scripts folder of the test's own) and enabled, no -P: frame 2 of the auto
+# scene carries its camera.
 check "installed as an add-on: frame 2 carries Blender's camera" sh -c '
   BLENDER_USER_SCRIPTS="$3/addon/scripts" "$1" -b --factory-startup "$3/scene.blend" -S auto \
   -noaudio --python-expr "
@@ -178,7 +179,8 @@ scene.frame_start = scene.frame_end = 2
 bpy.ops.render.render(animation=True)
 " > "$3/addon.log" 2>&1 && "$4" --print-camera -i "$3/addon/render.0002.exr" --frames 2 --up z \
   > "$3/addon/camera.txt" && awk -v mode=camera -f "$5/compare.awk" "$3/auto/truth.0002.txt" \
-  "$3/addon/camera.txt"' sh "$BLENDER" "$ADDON" "$T" "$FOGPIPE" "$TB"
+  "$3/addon/camera.txt"' sh "$BLENDER" "$FP_BUILDDIR/samples/blender/fogpipe_blender.zip" "$T" \
+  "$FOGPIPE" "$TB"
 diag "$T/out.txt"
 
 # Blender's own .chan exporter, its defaults (Y up, rotation order XYZ, the

@@ -1,5 +1,5 @@
 #!/bin/sh
-# The Blender add-on (samples/blender/fogpipe_blender.py) with the real
+# The Blender add-on (samples/blender/fogpipe_blender/__init__.py) with the real
 # Blender (Cycles on the CPU, 48x32, 1 sample): tests/blender/addon_scene.py
 # builds the scenes and writes where it put each light (tests/blender/
 # rig_check.py reads the frames back through oiiotool):
@@ -34,7 +34,7 @@ if ! command -v "$BLENDER" >/dev/null 2>&1; then
   finish
   exit $?
 fi
-ADDON="$FP_SRCDIR/samples/blender/fogpipe_blender.py"
+ADDON="$FP_SRCDIR/samples/blender/fogpipe_blender/__init__.py"
 TB="$FP_SRCDIR/tests/blender"
 CHECK="$TB/rig_check.py"
 B() { nice "$BLENDER" -b --factory-startup -noaudio "$@"; }

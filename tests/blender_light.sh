@@ -24,7 +24,7 @@
 #     strong (or, with the lights from the frame, with --lights none).
 # FP_LIGHT_FLAGS says where fogpipe's lights come from: "none" (default:
 # no light, shadow, up or clip option, only the medium's: the plate's rig
-# from the add-on, samples/blender/fogpipe_blender.py, carries the suns,
+# from the add-on, samples/blender/fogpipe_blender/__init__.py, carries the suns,
 # lights, up axis, Blender's default clip start 0.1 m and the sun's map,
 # the add-on's own (its operator, `-- --fogpipe-shadow-maps`' code: one map
 # per frame fitted to the fog the camera sees, fogpipe/sun.####.exr beside
@@ -45,7 +45,7 @@ if ! command -v "$BLENDER" >/dev/null 2>&1; then
   finish
   exit $?
 fi
-ADDON=${FP_BLENDER_ADDON:-$FP_SRCDIR/samples/blender/fogpipe_blender.py}
+ADDON=${FP_BLENDER_ADDON:-$FP_SRCDIR/samples/blender/fogpipe_blender/__init__.py}
 TB="$FP_SRCDIR/tests/blender"
 FP_LIGHT_FLAGS=${FP_LIGHT_FLAGS:-none}
 # Samples per seed: the height profile is ray-marched (2.5 times slower).

@@ -1,5 +1,5 @@
 # tests/blender.sh: Cycles renders the fog itself, for fogpipe to match.
-#   blender -b scene.blend -S auto|ortho -noaudio -P fogpipe_blender.py -P tests/blender/absorb.py -- OUTDIR SIGMA
+#   blender -b scene.blend -S auto|ortho -noaudio -P fogpipe_blender/__init__.py -P tests/blender/absorb.py -- OUTDIR SIGMA
 # On the scene (auto or ortho: 64x48, frame 1 only) the ground and the box are made
 # purely emissive (known colors, no lighting, so no noise) and the world
 # black; Cycles renders frame 1 twice, with the add-on:

@@ -1,5 +1,5 @@
 # Builds the scenes of tests/blender_addon.sh (run with the add-on):
-#   blender -b --factory-startup -noaudio -P fogpipe_blender.py -P addon_scene.py -- OUT.blend OUTDIR
+#   blender -b --factory-startup -noaudio -P fogpipe_blender/__init__.py -P addon_scene.py -- OUT.blend OUTDIR
 # and writes OUTDIR/truth-<scene>.txt: the rig each frame must carry,
 # computed here from how the lights were placed (not from their matrices):
 #   F sun DX DY DZ R G B ANGLE | F point X Y Z R G B RADIUS | F spot ... | F area ...

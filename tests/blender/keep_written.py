@@ -1,7 +1,7 @@
 # tests/blender_addon.sh: copies every frame Blender writes into DIR before
 # the add-on's render_write handler rewrites its header (so that the file
 # as Blender wrote it can be compared with the rewritten one).
-#   blender -b scene.blend -P fogpipe_blender.py -P keep_written.py -f 1 -- DIR
+#   blender -b scene.blend -P fogpipe_blender/__init__.py -P keep_written.py -f 1 -- DIR
 import os
 import shutil
 import sys

@@ -1,6 +1,6 @@
 # tests/blender_light.sh: Cycles renders lit fog (single scattering) for
 # fogpipe to match.
-#   blender -b --factory-startup -noaudio -P fogpipe_blender.py -P tests/blender/light_truth.py \
+#   blender -b --factory-startup -noaudio -P fogpipe_blender/__init__.py -P tests/blender/light_truth.py \
 #     -P tests/blender/light_scene.py -- OUTDIR SAMPLES PROFILE [map=768] [clip=1e-4] \
 #     [lights=sun,point,spot] [last=3] [shadow=PATH] [lamps=behind] [addonmap=1]
 # lamps=behind (tests/blender_lamps.sh): the point light behind the
@@ -29,7 +29,7 @@
 # --height Y0,H profile (1 below Y0, exp(-(z - Y0)/H) above it) of the
 # shading point's z ("homog": homogeneous).  Every surface is purely
 # emissive (known colors: the plate is exact and noiseless); the world is
-# black.  Cycles renders, with the add-on (-P fogpipe_blender.py: the
+# black.  Cycles renders, with the add-on (-P fogpipe_blender/__init__.py: the
 # camera and the rig, the lights, up axis and clip start, in every frame's
 # header):
 #   OUTDIR/plate.####.exr   frames 1-3, no fog, 1 sample: the plate

@@ -21,7 +21,7 @@ for a in "$@"; do
   case $a in bounces=*) n=${a#bounces=} ;; esac
 done
 if [ "${FP_SKIP_CYCLES:-0}" != 1 ]; then
-  nice -n 19 "$BLENDER" -b --factory-startup -noaudio -P "$src/samples/blender/fogpipe_blender.py" \
+  nice -n 19 "$BLENDER" -b --factory-startup -noaudio -P "$src/samples/blender/fogpipe_blender/__init__.py" \
     -P "$src/tests/blender/ms_scene.py" -- "$out" "$cs" "$@" > "$out.blender.log" 2>&1 ||
     { grep -i -E "error|traceback" "$out.blender.log" | head; exit 1; }
   grep "^ Time: " "$out.blender.log" | tail -n +2 | head -n 2 | sed 's/^/cycles render/'

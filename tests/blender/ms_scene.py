@@ -1,6 +1,6 @@
 # Issue 28: Cycles' multiple scattering for fogpipe's Monte Carlo reference
 # to match (doc/notes/multiple-scattering.md).
-#   blender -b --factory-startup -noaudio -P samples/blender/fogpipe_blender.py \
+#   blender -b --factory-startup -noaudio -P samples/blender/fogpipe_blender/__init__.py \
 #     -P tests/blender/ms_scene.py -- OUTDIR SAMPLES [sigma=0.025] [bounces=32]
 #     [occluder=0|1] [profile=height|homog] [seeds=1,2] [frames=1] [floor=-0.05]
 # The scene (Z up, meters): a black ground (z = 0), optionally a black wall

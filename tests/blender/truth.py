@@ -1,6 +1,6 @@
 # Blender's own camera and geometry at every frame of the same render, for
 # tests/blender.sh to compare with what fogpipe understood:
-#   blender -b scene.blend -S NAME -P fogpipe_blender.py -P tests/blender/truth.py -a -- OUTDIR
+#   blender -b scene.blend -S NAME -P fogpipe_blender/__init__.py -P tests/blender/truth.py -a -- OUTDIR
 # writes OUTDIR/NAME/truth.FRAME.txt, lines:
 #   camera FRAME px py pz  fx fy fz  ux uy uz  rx ry rz  vfov hfov
 #     (position; forward = the direction through the image center; up and
