@@ -13,7 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-static char *xstrdup(const char *s)
+char *fp_cl_xstrdup(const char *s)
 {
     size_t n = strlen(s) + 1;
     char *d = malloc(n);
@@ -22,8 +22,7 @@ static char *xstrdup(const char *s)
     return d;
 }
 
-static char *xasprintf(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-static char *xasprintf(const char *fmt, ...)
+char *fp_cl_xasprintf(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -184,14 +183,14 @@ char *fp_clcache_dir(void)
     if (env && strcmp(env, "off") == 0)
         return NULL;
     if (env && *env) {
-        dir = xstrdup(env);
+        dir = fp_cl_xstrdup(env);
     } else {
         const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
         /* XDG base directory spec: relative paths are invalid, ignore them. */
         if (xdg && xdg[0] == '/')
-            dir = xasprintf("%s/fogpipe", xdg);
+            dir = fp_cl_xasprintf("%s/fogpipe", xdg);
         else if (home && *home)
-            dir = xasprintf("%s/.cache/fogpipe", home);
+            dir = fp_cl_xasprintf("%s/.cache/fogpipe", home);
         else {
             fp_info("no HOME, XDG_CACHE_HOME or FOGPIPE_CACHE_DIR: OpenCL program cache off");
             return NULL;
@@ -305,7 +304,7 @@ void fp_clcache_write(const char *dir, const char *path, const unsigned char key
     fp_sha256_update(&s, bin, size);
     fp_sha256_final(&s, hdr + 8 + FP_KEY_LEN + 8);
 
-    if (!(tmp = xasprintf("%s/.%s.tmp-XXXXXX", dir, hex))) {
+    if (!(tmp = fp_cl_xasprintf("%s/.%s.tmp-XXXXXX", dir, hex))) {
         why = "out of memory";
         goto out;
     }

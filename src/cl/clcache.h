@@ -38,4 +38,9 @@ int fp_clcache_read(const char *path, const unsigned char key[FP_KEY_LEN],
 void fp_clcache_write(const char *dir, const char *path, const unsigned char key[FP_KEY_LEN],
                       const char *hex, const unsigned char *bin, size_t size);
 
+/* malloc'd copies (NULL when out of memory), for the runtime's paths and
+ * names (src/cl/clrt.c too). */
+char *fp_cl_xstrdup(const char *s);
+char *fp_cl_xasprintf(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
 #endif

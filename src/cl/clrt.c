@@ -122,33 +122,6 @@ int fp_cl_check(cl_int err, const char *what)
 
 /* ---------------------------------------------------------------- helpers */
 
-static char *xstrdup(const char *s)
-{
-    size_t n = strlen(s) + 1;
-    char *d = malloc(n);
-    if (d)
-        memcpy(d, s, n);
-    return d;
-}
-
-static char *xasprintf(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-static char *xasprintf(const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    int n = vsnprintf(NULL, 0, fmt, ap);
-    va_end(ap);
-    if (n < 0)
-        return NULL;
-    char *s = malloc((size_t)n + 1);
-    if (!s)
-        return NULL;
-    va_start(ap, fmt);
-    vsnprintf(s, (size_t)n + 1, fmt, ap);
-    va_end(ap);
-    return s;
-}
-
 /* Trim in place: some drivers pad names with spaces. */
 static char *trim(char *s)
 {
@@ -455,7 +428,7 @@ int fp_cl_open(const char *spec, fp_cl_t **out)
         !(cl->plat_version = platform_str(cl->platform, CL_PLATFORM_VERSION,
                                           "platform version")))
         goto out;
-    if (!(cl->label = xasprintf("%s (%s, driver %s)", cl->dev_name, cl->plat_name,
+    if (!(cl->label = fp_cl_xasprintf("%s (%s, driver %s)", cl->dev_name, cl->plat_name,
                                 cl->driver_version))) {
         fp_error("out of memory");
         goto out;
@@ -646,7 +619,7 @@ int fp_cl_program(fp_cl_t *cl, const char *stage, const char *options, cl_progra
 
     double t0 = now_ms();
     if ((dir = fp_clcache_dir())) {
-        if (!(path = xasprintf("%s/%s.bin", dir, hex))) {
+        if (!(path = fp_cl_xasprintf("%s/%s.bin", dir, hex))) {
             fp_error("out of memory");
             goto out;
         }
@@ -681,8 +654,8 @@ int fp_cl_program(fp_cl_t *cl, const char *stage, const char *options, cl_progra
             fp_clcache_write(dir, path, key, hex, bin, size);
     }
 
-    if (!(memo = calloc(1, sizeof *memo)) || !(memo->stage = xstrdup(stage)) ||
-        !(memo->options = xstrdup(options))) {
+    if (!(memo = calloc(1, sizeof *memo)) || !(memo->stage = fp_cl_xstrdup(stage)) ||
+        !(memo->options = fp_cl_xstrdup(options))) {
         fp_error("out of memory");
         goto out;
     }
