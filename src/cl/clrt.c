@@ -136,44 +136,46 @@ static char *trim(char *s)
 }
 
 /* A string-valued info query, malloc'ed and trimmed; NULL after a message. */
-static char *device_str(cl_device_id d, cl_device_info what, const char *name)
+/* One OpenCL info query: clGetDeviceInfo or clGetPlatformInfo on obj. */
+typedef cl_int (*info_query_fn)(void *obj, cl_uint what, size_t n, void *v, size_t *ret);
+
+static cl_int device_query(void *obj, cl_uint what, size_t n, void *v, size_t *ret)
+{
+    return clGetDeviceInfo((cl_device_id)obj, what, n, v, ret);
+}
+
+static cl_int platform_query(void *obj, cl_uint what, size_t n, void *v, size_t *ret)
+{
+    return clGetPlatformInfo((cl_platform_id)obj, what, n, v, ret);
+}
+
+/* A string property, trimmed, malloc'd; NULL (with the error said) on failure. */
+static char *info_str(info_query_fn query, void *obj, cl_uint what, const char *name)
 {
     size_t n = 0;
     char *s = NULL;
-    if (fp_cl_check(clGetDeviceInfo(d, what, 0, NULL, &n), name))
-        goto out;
+    if (fp_cl_check(query(obj, what, 0, NULL, &n), name))
+        return NULL;
     if (!(s = calloc(n + 1, 1))) {
         fp_error("out of memory");
-        goto out;
+        return NULL;
     }
-    if (fp_cl_check(clGetDeviceInfo(d, what, n, s, NULL), name)) {
+    if (fp_cl_check(query(obj, what, n, s, NULL), name)) {
         free(s);
-        s = NULL;
-        goto out;
+        return NULL;
     }
     trim(s);
-out:
     return s;
+}
+
+static char *device_str(cl_device_id d, cl_device_info what, const char *name)
+{
+    return info_str(device_query, (void *)d, what, name);
 }
 
 static char *platform_str(cl_platform_id p, cl_platform_info what, const char *name)
 {
-    size_t n = 0;
-    char *s = NULL;
-    if (fp_cl_check(clGetPlatformInfo(p, what, 0, NULL, &n), name))
-        goto out;
-    if (!(s = calloc(n + 1, 1))) {
-        fp_error("out of memory");
-        goto out;
-    }
-    if (fp_cl_check(clGetPlatformInfo(p, what, n, s, NULL), name)) {
-        free(s);
-        s = NULL;
-        goto out;
-    }
-    trim(s);
-out:
-    return s;
+    return info_str(platform_query, (void *)p, what, name);
 }
 
 static double now_ms(void)
