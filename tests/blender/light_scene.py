@@ -76,6 +76,10 @@ import sys
 import bpy
 from mathutils import Matrix, Vector
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+from common import black_world, cycles_cpu, keyed_camera  # noqa: E402
+
 argv = sys.argv[sys.argv.index("--") + 1:]
 outdir, samples, profile = argv[0], int(argv[1]), argv[2]
 opt = dict(a.split("=", 1) for a in argv[3:])
@@ -231,53 +235,20 @@ else:
     fm.cycles.homogeneous_volume = True
 fog.data.materials.append(fm)
 
-world = bpy.data.worlds.new("black")
-world.use_nodes = True
-wnt = world.node_tree
-wnt.nodes["Background"].inputs['Color'].default_value = (0.0, 0.0, 0.0, 1.0)
-wnt.nodes["Background"].inputs['Strength'].default_value = 0.0
-scene.world = world
-
-cd = bpy.data.cameras.new("cam")
-cd.sensor_fit = 'AUTO'
-cd.clip_start = CLIP
-cd.clip_end = 1000.0
-cam = bpy.data.objects.new("cam", cd)
-scene.collection.objects.link(cam)
-scene.camera = cam
+black_world(scene)
 KEYS = [((0.0, -7.0, 1.7), (0.0, 3.0, 1.8), 24.0),
         ((1.5, -6.5, 1.4), (0.5, 3.0, 2.1), 28.0),
         ((-1.4, -7.6, 2.1), (-0.5, 3.0, 1.4), 22.0)]
-for f, (loc, target, lens) in enumerate(KEYS, start=1):
-    cam.location = loc
-    cam.rotation_euler = (Vector(target) - Vector(loc)).to_track_quat('-Z', 'Y').to_euler()
-    cd.lens = lens
-    cam.keyframe_insert("location", frame=f)
-    cam.keyframe_insert("rotation_euler", frame=f)
-    cd.keyframe_insert("lens", frame=f)
+cam = keyed_camera(scene, KEYS, CLIP)
 
 r = scene.render
-r.engine = 'CYCLES'
-c = scene.cycles
-c.device = 'CPU'
-c.use_denoising = False
-c.use_adaptive_sampling = False
-c.filter_width = 0.01
+c = cycles_cpu(scene, WIDTH, HEIGHT)
 c.max_bounces = 0
 c.volume_bounces = 0
 c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 0
 # Shadow rays cross the fog box's faces as transparent bounces: with none
 # allowed, the box would block the sun.
 c.transparent_max_bounces = 8
-c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-c.light_sampling_threshold = 0.0
-c.use_animated_seed = False
-c.volume_max_steps = 1024
-r.threads_mode = 'FIXED'
-r.threads = 2
-r.use_persistent_data = True
-r.resolution_x, r.resolution_y, r.resolution_percentage = WIDTH, HEIGHT, 100
-scene.view_layers[0].use_pass_z = True
 scene.frame_start, scene.frame_end = 1, 3
 
 with open(os.path.join(outdir, "scene.txt"), "w") as f:
@@ -287,11 +258,7 @@ with open(os.path.join(outdir, "scene.txt"), "w") as f:
 
 
 def render(name, first=1, last=last_frame, fmt='OPEN_EXR'):
-    scene.frame_start, scene.frame_end = first, last
-    r.image_settings.file_format = fmt
-    r.image_settings.color_depth = '32'
-    r.filepath = os.path.join(outdir, name + ".####")
-    bpy.ops.render.render(animation=True)
+    common.render(scene, outdir, name, first, last, fmt)
 
 
 def surfaces(strength):
