@@ -113,52 +113,23 @@ FP_FN int fp_ls_walk(FP_CONSTANT const fp_real *lt, fp_real qx, fp_real qy, fp_r
         ex *= 4 * (fp_real)(PW + PH) / el;
         ey *= 4 * (fp_real)(PW + PH) / el;
     }
-    fp_real u0 = 0, u1 = 1;
-    fp_clip(ax, ex, 0, (fp_real)PW, &u0, &u1);
-    fp_clip(ay, ey, 0, (fp_real)PH, &u0, &u1);
-    if (!(u1 >= u0))
+    fp_pyr_walk_t pw;
+    if (!fp_pyr_walk_begin(&pw, PW, PH, NL, ax, ay, ex, ey))
         return 0;
-    int offs[FP_SM_MAX_LEVELS + 1];
-    fp_pyr_offsets(PW, PH, NL, offs);
-    int ix = (int)fmin(fmax(floor(ax + u0 * ex), (fp_real)0), (fp_real)(PW - 1));
-    int iy = (int)fmin(fmax(floor(ay + u0 * ey), (fp_real)0), (fp_real)(PH - 1));
-    int lv = NL, n = 0;
+    int n = 0;
     for (int guard = 0; guard < 8 * (PW + PH) + 64; guard++) {
-        int sz = 1 << lv, bi = ix >> lv, bj = iy >> lv;
-        fp_real uX = ex > 0 ? ((fp_real)((bi + 1) * sz) - ax) / ex
-                     : ex < 0 ? ((fp_real)(bi * sz) - ax) / ex : (fp_real)FP_INF;
-        fp_real uY = ey > 0 ? ((fp_real)((bj + 1) * sz) - ay) / ey
-                     : ey < 0 ? ((fp_real)(bj * sz) - ay) / ey : (fp_real)FP_INF;
-        fp_real zlo, zhi;
-        if (lv == 0) {
-            zlo = zhi = zpyr[iy * PW + ix];
-        } else {
-            int o = offs[lv] + 2 * (bj * ((PW + sz - 1) >> lv) + bi);
-            zlo = zpyr[o];
-            zhi = zpyr[o + 1];
-        }
-        fp_real a, b;
-        int hit = zlo < FP_INF &&
-                  fp_ls_cells(lt + FP_LT_SS_NDC, nt, ns, nc, D, W, C0, bi * sz,
-                              (bi + 1) * sz < PW ? (bi + 1) * sz : PW, bj * sz,
-                              (bj + 1) * sz < PH ? (bj + 1) * sz : PH, zlo, zhi + thick, t0, t1,
-                              point, &a, &b);
-        if (hit && lv > 0) {
-            lv--;
-            continue;
-        }
-        if (hit) {
+        int x0, x1, y0, y1;
+        fp_real zlo, zhi, a, b;
+        fp_pyr_walk_block(&pw, zpyr, &x0, &x1, &y0, &y1, &zlo, &zhi);
+        int hit = zlo < FP_INF && fp_ls_cells(lt + FP_LT_SS_NDC, nt, ns, nc, D, W, C0, x0, x1, y0,
+                                              y1, zlo, zhi + thick, t0, t1, point, &a, &b);
+        if (hit && pw.lv == 0) {
             n = fp_ss_insert(iv, n, a, b);
             if (point)
                 break;
         }
-        fp_real ue = fmin(uX, uY);
-        if (ue >= u1)
+        if (!fp_pyr_walk_next(&pw, hit))
             break;
-        fp_pyr_next(&ix, &iy, bi, bj, sz, uX <= uY, ax, ay, ex, ey, ue);
-        if (ix < 0 || iy < 0 || ix >= PW || iy >= PH)
-            break;
-        lv = lv < NL ? lv + 1 : NL;
     }
     return n;
 }

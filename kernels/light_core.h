@@ -377,6 +377,88 @@ FP_FN void fp_pyr_next(int *ix, int *iy, int bi, int bj, int sz, int xface, fp_r
     }
 }
 
+/* A hierarchical 2D DDA over a min-max pyramid of W x H cells (nl levels)
+ * along the line a + u e, u in [0, 1], in cells: the screen walks toward
+ * the sun (fp_ss_walk_dir) and toward a lamp (fp_ls_walk, lamp_shadow_core.h)
+ * differ only in their cell test.  Each step looks at one block
+ * (fp_pyr_walk_block); a block the test hits is opened a level down, any
+ * other is crossed whole, and the walk climbs back a level after each
+ * block it leaves (fp_pyr_walk_next). */
+typedef struct {
+    int W, H, nl, lv, ix, iy, bi, bj, sz;
+    fp_real ax, ay, ex, ey, u1, uX, uY;
+    int offs[FP_SM_MAX_LEVELS + 1];
+} fp_pyr_walk_t;
+
+/* The walk's start where the line enters the cells; 0 when it misses. */
+FP_FN int fp_pyr_walk_begin(fp_pyr_walk_t *w, int W, int H, int nl, fp_real ax, fp_real ay,
+                            fp_real ex, fp_real ey)
+{
+    fp_real u0 = 0, u1 = 1;
+    fp_clip(ax, ex, 0, (fp_real)W, &u0, &u1);
+    fp_clip(ay, ey, 0, (fp_real)H, &u0, &u1);
+    if (!(u1 >= u0))
+        return 0;
+    w->W = W;
+    w->H = H;
+    w->nl = nl;
+    w->ax = ax;
+    w->ay = ay;
+    w->ex = ex;
+    w->ey = ey;
+    w->u1 = u1;
+    fp_pyr_offsets(W, H, nl, w->offs);
+    w->ix = (int)fmin(fmax(floor(ax + u0 * ex), (fp_real)0), (fp_real)(W - 1));
+    w->iy = (int)fmin(fmax(floor(ay + u0 * ey), (fp_real)0), (fp_real)(H - 1));
+    w->lv = nl;
+    return 1;
+}
+
+/* The current block: its cells [x0, x1) x [y0, y1) and the range of its
+ * values (a cell's value twice at level 0; +inf: sky). */
+FP_FN void fp_pyr_walk_block(fp_pyr_walk_t *w, FP_GLOBAL const float *zpyr, int *x0, int *x1,
+                             int *y0, int *y1, fp_real *zlo, fp_real *zhi)
+{
+    int lv = w->lv, sz = 1 << lv, bi = w->ix >> lv, bj = w->iy >> lv;
+    w->sz = sz;
+    w->bi = bi;
+    w->bj = bj;
+    w->uX = w->ex > 0 ? ((fp_real)((bi + 1) * sz) - w->ax) / w->ex
+          : w->ex < 0 ? ((fp_real)(bi * sz) - w->ax) / w->ex : (fp_real)FP_INF;
+    w->uY = w->ey > 0 ? ((fp_real)((bj + 1) * sz) - w->ay) / w->ey
+          : w->ey < 0 ? ((fp_real)(bj * sz) - w->ay) / w->ey : (fp_real)FP_INF;
+    if (lv == 0) {
+        *zlo = *zhi = zpyr[w->iy * w->W + w->ix];
+    } else {
+        int o = w->offs[lv] + 2 * (bj * ((w->W + sz - 1) >> lv) + bi);
+        *zlo = zpyr[o];
+        *zhi = zpyr[o + 1];
+    }
+    *x0 = bi * sz;
+    *x1 = (bi + 1) * sz < w->W ? (bi + 1) * sz : w->W;
+    *y0 = bj * sz;
+    *y1 = (bj + 1) * sz < w->H ? (bj + 1) * sz : w->H;
+}
+
+/* After a block: a hit above level 0 opens it; else on to the next block
+ * along the line.  0 at the line's end or the cells' edge. */
+FP_FN int fp_pyr_walk_next(fp_pyr_walk_t *w, int hit)
+{
+    if (hit && w->lv > 0) {
+        w->lv--;
+        return 1;
+    }
+    fp_real ue = fmin(w->uX, w->uY);
+    if (ue >= w->u1)
+        return 0;
+    fp_pyr_next(&w->ix, &w->iy, w->bi, w->bj, w->sz, w->uX <= w->uY, w->ax, w->ay, w->ex, w->ey,
+                ue);
+    if (w->ix < 0 || w->iy < 0 || w->ix >= w->W || w->iy >= w->H)
+        return 0;
+    w->lv = w->lv < w->nl ? w->lv + 1 : w->nl;
+    return 1;
+}
+
 /* A camera-space point's NDC (homogeneous, fp_ss_ndc) -> the depth
  * buffer's pixel units (pixel i spans [i, i + 1)), by its own mapping
  * (FP_LT_SS_NDC), not the traced view's. */
@@ -431,52 +513,24 @@ FP_FN int fp_ss_walk_dir(FP_CONSTANT const fp_real *lt, fp_real lx, fp_real ly, 
     fp_real bx = fp_ss_pixel(lt, nb, 0), by = fp_ss_pixel(lt, nb, 1);
     /* A hierarchical 2D DDA over the pixels of [a, b] within the screen,
      * in the parameter u of a + u (b - a). */
-    fp_real ex = bx - ax, ey = by - ay, u0 = 0, u1 = 1;
-    int W = (int)lt[FP_LT_SS_PW], H = (int)lt[FP_LT_SS_PH], NL = (int)lt[FP_LT_SS_PLEVELS];
-    fp_clip(ax, ex, 0, (fp_real)W, &u0, &u1);
-    fp_clip(ay, ey, 0, (fp_real)H, &u0, &u1);
-    if (!(u1 >= u0))
+    int W = (int)lt[FP_LT_SS_PW], H = (int)lt[FP_LT_SS_PH];
+    fp_pyr_walk_t pw;
+    if (!fp_pyr_walk_begin(&pw, W, H, (int)lt[FP_LT_SS_PLEVELS], ax, ay, bx - ax, by - ay))
         return 0;
-    int offs[FP_SM_MAX_LEVELS + 1];
-    fp_pyr_offsets(W, H, NL, offs);
-    int ix = (int)fmin(fmax(floor(ax + u0 * ex), (fp_real)0), (fp_real)(W - 1));
-    int iy = (int)fmin(fmax(floor(ay + u0 * ey), (fp_real)0), (fp_real)(H - 1));
-    int lv = NL, n = 0;
+    int n = 0;
     for (int guard = 0; guard < 8 * (W + H) + 64; guard++) {
-        int sz = 1 << lv, bi = ix >> lv, bj = iy >> lv;
-        fp_real uX = ex > 0 ? ((fp_real)((bi + 1) * sz) - ax) / ex
-                     : ex < 0 ? ((fp_real)(bi * sz) - ax) / ex : (fp_real)FP_INF;
-        fp_real uY = ey > 0 ? ((fp_real)((bj + 1) * sz) - ay) / ey
-                     : ey < 0 ? ((fp_real)(bj * sz) - ay) / ey : (fp_real)FP_INF;
-        fp_real zlo, zhi;
-        if (lv == 0) {
-            zlo = zhi = zpyr[iy * W + ix];
-        } else {
-            int o = offs[lv] + 2 * (bj * ((W + sz - 1) >> lv) + bi);
-            zlo = zpyr[o];
-            zhi = zpyr[o + 1];
-        }
-        fp_real a, b;
-        int hit = zlo < FP_INF &&
-                  fp_ss_cells(lt + FP_LT_SS_NDC, nt, ns, nc, D, L, C0, bi * sz, (bi + 1) * sz < W ? (bi + 1) * sz : W,
-                              bj * sz, (bj + 1) * sz < H ? (bj + 1) * sz : H, zlo, zhi + thick, t0,
-                              t1, dist, point, &a, &b);
-        if (hit && lv > 0) {
-            lv--;
-            continue;
-        }
-        if (hit) {
+        int x0, x1, y0, y1;
+        fp_real zlo, zhi, a, b;
+        fp_pyr_walk_block(&pw, zpyr, &x0, &x1, &y0, &y1, &zlo, &zhi);
+        int hit = zlo < FP_INF && fp_ss_cells(lt + FP_LT_SS_NDC, nt, ns, nc, D, L, C0, x0, x1, y0,
+                                              y1, zlo, zhi + thick, t0, t1, dist, point, &a, &b);
+        if (hit && pw.lv == 0) {
             n = fp_ss_insert(iv, n, a, b);
             if (point)
                 break;
         }
-        fp_real ue = fmin(uX, uY);
-        if (ue >= u1)
+        if (!fp_pyr_walk_next(&pw, hit))
             break;
-        fp_pyr_next(&ix, &iy, bi, bj, sz, uX <= uY, ax, ay, ex, ey, ue);
-        if (ix < 0 || iy < 0 || ix >= W || iy >= H)
-            break;
-        lv = lv < NL ? lv + 1 : NL;
     }
     return n;
 }
