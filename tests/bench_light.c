@@ -23,6 +23,7 @@
 
 #include "fog_core.h"
 #include "light_core.h"
+#include "scatter_core.h"
 
 static double now_ms(void)
 {
@@ -301,20 +302,61 @@ static void buffers_section(bench_t *b, const char *shadow_opt)
     free(lo_depth);
 }
 
-/* Issue 23: many lamps.  A street of n lamps (points with a soft
- * radius, Cycles spots pointing down, fogpipe spots, area lights facing
- * down), 1.5 units apart along z on both sides, in the sample frame's
- * ground fog; OpenCL, culling at the default bound and off: CPU time per
+/* The street of n lamps (points with a soft radius, Cycles spots pointing
+ * down, fogpipe spots, area lights facing down), 1.5 units apart along z
+ * on both sides, in the sample frame's ground fog: options as "name=value"
+ * strings (*m of them, room for 4 more and a NULL), freed by the caller. */
+static char **street_opts(int n, int *mp)
+{
+    char **opts = calloc((size_t)n + 8, sizeof *opts);
+    int m = 0;
+    if (!opts)
+        return NULL;
+    opts[m++] = strdup("density=0.05");
+    opts[m++] = strdup("height=0,3,15");
+    opts[m++] = strdup("fog-color=0.002,0.003,0.006");
+    opts[m++] = strdup("phase=hg:0.6");
+    /* The lamps' in-scatter alone: their screen-space shadows (walked
+     * lamp by lamp, the default --lamp-shadows screen) are
+     * bench_lamp_shadow's. */
+    opts[m++] = strdup("lamp-shadows=none");
+    for (int k = 0; k < n; k++) {
+        char spec[256];
+        double x = (k % 2 ? -4 : 4) + 0.5 * sin(k), z = 2 + 1.5 * (k / 2) + 0.75 * (k % 2);
+        switch (k % 4) {
+        case 0:
+            snprintf(spec, sizeof spec, "light=point:%g,3.5,%g:1,0.6,0.3:8:0.1", x, z);
+            break;
+        case 1:
+            snprintf(spec, sizeof spec,
+                     "light=spot:%g,4,%g:0.8,0.9,1:30:%g,-1,0.1:cycles:60,0.2:0.05", x, z,
+                     -0.1 * x);
+            break;
+        case 2:
+            snprintf(spec, sizeof spec, "light=spot:%g,4,%g:1,1,0.8:30:0,-1,0:20,35", x, z);
+            break;
+        default:
+            snprintf(spec, sizeof spec, "light=area:%g,3,%g:1,0.9,0.7:6:0,-1,0:1,0,0:0.6,0.3",
+                     x, z);
+        }
+        opts[m++] = strdup(spec);
+    }
+    *mp = m;
+    return opts;
+}
+
+/* Issue 23: many lamps.  The street of street_opts; OpenCL, culling at the default bound and off: CPU time per
  * pixel (getrusage, user + sys: PoCL's threads are the process's) and
  * wall, the least of `reps` runs, and the culling's measured error. */
-static void lamps_section(bench_t *b)
+static void lamps_section(bench_t *b, double cost[4])
 {
     static const int counts[] = { 1, 8, 64, 256 };
     const int reps = 3;
     printf("\n### Many lamps (issue 23): each pixel pays for the lamps that reach it\n\n"
            "A street of N lamps along z (points with a soft radius, Cycles spots and fogpipe "
            "spots shining down, area lights facing down; 1.5 apart on both sides), "
-           "density 0.05, height 0,3,15, hg:0.6, the fast rule, OpenCL. CPU ns per pixel "
+           "density 0.05, height 0,3,15, hg:0.6, the fast rule, --lamp-shadows none, OpenCL. "
+           "CPU ns per pixel "
            "(user + sys, getrusage) and wall ms per frame, the least of %d runs, with the "
            "default --light-cull 1e-4 and with culling off (0); the culling's error: the "
            "largest |dS| of any channel against culling off (its bound: 1e-4).\n\n", reps);
@@ -326,34 +368,11 @@ static void lamps_section(bench_t *b)
     double one = NAN, many[FP_ARRAY_LEN(counts)];
     for (size_t ci = 0; ci < FP_ARRAY_LEN(counts); ci++) {
         int n = counts[ci];
-        many[ci] = NAN;
-        char **opts = calloc((size_t)n + 8, sizeof *opts);
-        int m = 0;
-        opts[m++] = strdup("density=0.05");
-        opts[m++] = strdup("height=0,3,15");
-        opts[m++] = strdup("fog-color=0.002,0.003,0.006");
-        opts[m++] = strdup("phase=hg:0.6");
-        for (int k = 0; k < n; k++) {
-            char spec[256];
-            double x = (k % 2 ? -4 : 4) + 0.5 * sin(k), z = 2 + 1.5 * (k / 2) + 0.75 * (k % 2);
-            switch (k % 4) {
-            case 0:
-                snprintf(spec, sizeof spec, "light=point:%g,3.5,%g:1,0.6,0.3:8:0.1", x, z);
-                break;
-            case 1:
-                snprintf(spec, sizeof spec,
-                         "light=spot:%g,4,%g:0.8,0.9,1:30:%g,-1,0.1:cycles:60,0.2:0.05", x, z,
-                         -0.1 * x);
-                break;
-            case 2:
-                snprintf(spec, sizeof spec, "light=spot:%g,4,%g:1,1,0.8:30:0,-1,0:20,35", x, z);
-                break;
-            default:
-                snprintf(spec, sizeof spec, "light=area:%g,3,%g:1,0.9,0.7:6:0,-1,0:1,0,0:0.6,0.3",
-                         x, z);
-            }
-            opts[m++] = strdup(spec);
-        }
+        many[ci] = cost[ci] = NAN;
+        int m;
+        char **opts = street_opts(n, &m);
+        if (!opts)
+            break;
         double cpu[2], wall[2], err = 0;
         for (int cull = 1; cull >= 0; cull--) {
             opts[m] = strdup(cull ? "light-cull=1e-4" : "light-cull=0");
@@ -385,7 +404,7 @@ static void lamps_section(bench_t *b)
         }
         printf("| %d | %.0f | %.1f | %.0f | %.1f | %.0f | %.2g |\n", n, cpu[1], wall[1], cpu[0],
                wall[0], cpu[1] / n, err);
-        many[ci] = cpu[1];
+        many[ci] = cost[ci] = cpu[1];
         if (n == 1)
             one = cpu[1];
         for (int k = 0; k < m; k++)
@@ -402,6 +421,8 @@ static void lamps_section(bench_t *b)
                : counts[ci] == 256 ? (many[ci] <= 4 * one ? " (met)" : " (not met)") : "");
     printf(".\n");
 }
+
+#include "bench_lamp_floor.h"
 
 int main(int argc, char **argv)
 {
@@ -434,8 +455,14 @@ int main(int argc, char **argv)
     const char *only = getenv("FP_BENCH_LIGHT_ONLY");
     if (only && strcmp(only, "buffers") == 0)
         goto buffers;
+    double lamp_cost[4] = { NAN, NAN, NAN, NAN };
+    if (only && strcmp(only, "floor") == 0) {   /* the floor's counts alone, no costs */
+        floor_section(&b, lamp_cost);
+        goto done;
+    }
     if (only && strcmp(only, "lamps") == 0) {
-        lamps_section(&b);
+        lamps_section(&b, lamp_cost);
+        floor_section(&b, lamp_cost);
         goto done;
     }
     printf("## Light in the fog (single scattering)\n\n"
@@ -548,7 +575,8 @@ int main(int argc, char **argv)
             }
         }
     }
-    lamps_section(&b);
+    lamps_section(&b, lamp_cost);
+    floor_section(&b, lamp_cost);
 buffers:
     buffers_section(&b, shadow_opt);
 done:
