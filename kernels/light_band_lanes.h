@@ -27,6 +27,20 @@
 #ifndef FP_LIGHT_BAND_LANES_H
 #define FP_LIGHT_BAND_LANES_H
 
+/* min and max of the nodes' lanes as selects: one vminps / vmaxps on the
+ * CPU device, where fmin and fmax (IEEE minNum: a NaN loses) take three
+ * instructions each; no NaN reaches them on a node that is kept (t and r
+ * finite, H > 0). */
+FP_LN_FN fp_lnr fp_ln_lo(fp_lnr a, fp_lnr b)
+{
+    return a < b ? a : b;
+}
+
+FP_LN_FN fp_lnr fp_ln_hi(fp_lnr a, fp_lnr b)
+{
+    return a > b ? a : b;
+}
+
 /* (1 - e^-x) / x for 0 <= x < 1/8. */
 FP_LN_FN fp_lnr fp_ln_ratio_series(fp_lnr x)
 {
@@ -56,7 +70,7 @@ FP_LN_FN fp_lnr fp_ln_band_h(const fp_ln_band_t *b, fp_lnr y)
 /* h clamped to the band's ends: h at the nearest height in [y0, top]. */
 FP_LN_FN fp_lnr fp_ln_band_clamp(const fp_ln_band_t *b, fp_lnr h)
 {
-    return fmin(fmax(h, b->h_top), (fp_real)1);
+    return fp_ln_lo(fp_ln_hi(h, FP_LN(b->h_top)), FP_LN(1));
 }
 
 /* The profile (sigma > 0) for view rays from height oy (its frame) along
@@ -91,7 +105,7 @@ FP_LN_FN fp_lnr fp_ln_band_above(fp_lnr w, fp_lnr ady, fp_real inv_h, fp_lnr k, 
                                  fp_lnr hb)
 {
     fp_lnr x = ady * w * inv_h;
-    fp_lnr near = w * fmax(ha, hb) * fp_ln_ratio_series(x);
+    fp_lnr near = w * fp_ln_hi(ha, hb) * fp_ln_ratio_series(x);
     fp_lnr far = fabs(ha - hb) * k;
     return x < (fp_real)0.125 ? near : far;
 }
@@ -100,8 +114,8 @@ FP_LN_FN fp_lnr fp_ln_band_above(fp_lnr w, fp_lnr ady, fp_real inv_h, fp_lnr k, 
  * h there. */
 FP_LN_FN fp_lnr fp_ln_band_cam(const fp_ln_band_t *b, fp_lnr t, fp_lnr ht)
 {
-    fp_lnr below = fmax(fmin(b->bl_b, t) - b->bl_a, (fp_real)0);
-    fp_lnr w = fmax(fmin(b->e2, t) - b->a2, (fp_real)0);
+    fp_lnr below = fp_ln_hi(fp_ln_lo(b->bl_b, t) - b->bl_a, FP_LN(0));
+    fp_lnr w = fp_ln_hi(fp_ln_lo(b->e2, t) - b->a2, FP_LN(0));
     return b->sigma * (below + fp_ln_band_above(w, b->ady, b->inv_h, b->k_cam, b->h_cam, ht));
 }
 
@@ -112,11 +126,12 @@ FP_LN_FN fp_lnr fp_ln_band_light(const fp_ln_band_t *b, fp_lnr py, fp_lnr dy, fp
 {
     fp_lni up = dy > 0;
     fp_lnr u = (b->lo - py) * inv;
-    fp_lnr a1 = up ? FP_LN(0) : fmax(u, (fp_real)0);
-    fp_lnr b1 = up ? fmin(u, r) : r;
-    fp_lnr below = fmax(b1 - a1, (fp_real)0);
+    fp_lnr a1 = up ? FP_LN(0) : fp_ln_hi(u, FP_LN(0));
+    fp_lnr b1 = up ? fp_ln_lo(u, r) : r;
+    fp_lnr below = fp_ln_hi(b1 - a1, FP_LN(0));
     fp_lnr u0 = (b->y0 - py) * inv, u1 = (b->top - py) * inv;
-    fp_lnr w = fmax(fmin(fmax(u0, u1), r) - fmax(fmin(u0, u1), (fp_real)0), (fp_real)0);
+    fp_lnr w = fp_ln_hi(fp_ln_lo(fp_ln_hi(u0, u1), r) - fp_ln_hi(fp_ln_lo(u0, u1), FP_LN(0)),
+                        FP_LN(0));
     return b->sigma * (below + fp_ln_band_above(w, fabs(dy), b->inv_h, b->H * fabs(inv), hp,
                                                 b->h_light));
 }
@@ -137,12 +152,12 @@ FP_LN_FN void fp_ln_band_node(const fp_ln_band_t *m, int main_on, const fp_ln_ba
     fp_lnr s = FP_LN(0), o = FP_LN(0);
     if (main_on) {
         fp_lnr e = fp_ln_band_h(m, py), h = fp_ln_band_clamp(m, e);
-        s = py < m->top ? m->sigma * fmin(e, (fp_real)1) : FP_LN(0);
+        s = py < m->top ? m->sigma * fp_ln_lo(e, FP_LN(1)) : FP_LN(0);
         o = fp_ln_band_cam(m, t, h) + fp_ln_band_light(m, py, ddy, inv, r, h);
     }
     if (haze_on) {
         fp_lnr e = fp_ln_band_h(hz, y), h = fp_ln_band_clamp(hz, e);
-        s += y < hz->top ? hz->sigma * fmin(e, (fp_real)1) : FP_LN(0);
+        s += y < hz->top ? hz->sigma * fp_ln_lo(e, FP_LN(1)) : FP_LN(0);
         o += fp_ln_band_cam(hz, t, h) + fp_ln_band_light(hz, y, ddy, inv, r, h);
     }
     *sig = s;
