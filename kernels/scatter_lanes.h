@@ -419,7 +419,7 @@ FP_LN_FN fp_lnr fp_ln_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_r
         plain &= isinf(fp[FP_F_BOX + i]) != 0;
     int main_on = fp[FP_F_SIGMA] > 0, haze_on = fp[FP_F_HAZE] > 0;
     fp_real yoff = fp[FP_F_OFF + 1];
-    fp_ln_band_t bm, bh;
+    fp_ln_band_t bm = { 0 }, bh = { 0 };
     if (plain && main_on)
         fp_ln_band_init(&bm, fp[FP_F_SIGMA], fp[FP_F_Y0], fp[FP_F_H], fp[FP_F_TOP], oy - yoff, dy,
                         row[FP_LL_POS + 1] - yoff);
