@@ -392,33 +392,62 @@ int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
 static int upload_pixels(fp_integrate_cl_t *s, const int *pix, size_t npix);
 
 /* Fog without a fogmap: integrate_height(_list), 16 pixels per work-item
- * (kernels/integrate.cl), with the arguments of integrate_fog. */
-static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix, size_t npix,
-                         cl_float4 color, float *fog, int over, cl_mem depth)
+ * (kernels/integrate.cl), with the arguments of integrate_fog: set them
+ * (the layer s->fog), *k the kernel (NULL when the list is empty: nothing
+ * to run), global its work size. */
+static int height_args(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix, size_t npix,
+                       cl_float4 color, int over, cl_mem depth, cl_kernel *k, size_t *global)
 {
     const size_t lanes = 16;   /* FP_SIMD in kernels/fog_core.h */
     cl_int w = v->width, h = v->height;
-    if (!pix)
-        npix = 0;
+    *k = NULL;
     if (npix > (size_t)w * h)
         return fp_error("integrate_height: %zu pixels listed, the frame has %d", npix, w * h);
     if (pix && npix == 0)
         return FP_OK;
-    cl_kernel k = over ? s->height_over : npix ? s->height_list : s->height;
+    *k = over ? s->height_over : npix ? s->height_list : s->height;
     cl_int cnpix = (cl_int)npix;
-    if (upload_pixels(s, pix, npix) || FP_CL_ARG(k, 0, depth) || FP_CL_ARG(k, 1, s->fog) ||
-        FP_CL_ARG(k, 2, s->view) || FP_CL_ARG(k, 3, w) || FP_CL_ARG(k, 4, h) ||
-        FP_CL_ARG(k, 5, s->params) || FP_CL_ARG(k, 6, s->lvi) || FP_CL_ARG(k, 7, s->lvf) ||
-        FP_CL_ARG(k, 8, s->coef) || FP_CL_ARG(k, 9, s->occ) || FP_CL_ARG(k, 10, s->pix) ||
-        FP_CL_ARG(k, 11, cnpix) || FP_CL_ARG(k, 12, color))
+    if (upload_pixels(s, pix, npix) || FP_CL_ARG(*k, 0, depth) || FP_CL_ARG(*k, 1, s->fog) ||
+        FP_CL_ARG(*k, 2, s->view) || FP_CL_ARG(*k, 3, w) || FP_CL_ARG(*k, 4, h) ||
+        FP_CL_ARG(*k, 5, s->params) || FP_CL_ARG(*k, 6, s->lvi) || FP_CL_ARG(*k, 7, s->lvf) ||
+        FP_CL_ARG(*k, 8, s->coef) || FP_CL_ARG(*k, 9, s->occ) || FP_CL_ARG(*k, 10, s->pix) ||
+        FP_CL_ARG(*k, 11, cnpix) || FP_CL_ARG(*k, 12, color))
         return FP_ERR;
-    size_t global[2] = { ((size_t)w + lanes - 1) / lanes, (size_t)h };
-    if (npix) {
-        global[0] = (npix + lanes - 1) / lanes;
-        global[1] = 1;
-    }
-    return run_read_layer(s, k, npix ? 1 : 2, global, NULL, npix ? npix : (size_t)w * h, fog,
+    global[0] = npix ? (npix + lanes - 1) / lanes : ((size_t)w + lanes - 1) / lanes;
+    global[1] = npix ? 1 : (size_t)h;
+    return FP_OK;
+}
+
+static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix, size_t npix,
+                         cl_float4 color, float *fog, int over, cl_mem depth)
+{
+    if (!pix)
+        npix = 0;
+    cl_kernel k;
+    size_t global[2];
+    if (height_args(s, v, pix, npix, color, over, depth, &k, global) || !k)
+        return k ? FP_ERR : FP_OK;
+    return run_read_layer(s, k, npix ? 1 : 2, global, NULL,
+                          npix ? npix : (size_t)v->width * v->height, fog,
                           over ? 2 : 1, over ? "integrate_height_over" : "integrate_height");
+}
+
+int fp_integrate_height_layer_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                                 const fp_view_t *v, const int *pix, size_t npix,
+                                 const double color[3])
+{
+    if (d->fp[FP_F_HAS_MAP] != 0 || v->ortho || v->clip > 0)
+        return fp_error("integrate_height: a fogmap, an orthographic view or a clip plane");
+    if (!pix)
+        npix = 0;
+    cl_float4 c = { { (float)color[0], (float)color[1], (float)color[2], 0 } };
+    cl_kernel k;
+    size_t global[2];
+    if (height_args(s, v, pix, npix, c, 0, s->depth, &k, global) || !k)
+        return k ? FP_ERR : FP_OK;
+    return fp_cl_check(clEnqueueNDRangeKernel(fp_cl_queue(s->cl), k, npix ? 1 : 2, NULL, global,
+                                              NULL, 0, NULL, NULL),
+                       "integrate_height");
 }
 
 int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,

@@ -103,6 +103,14 @@ int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
 int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                            const fp_view_t *v, const float *depth, const int *pix, size_t npix,
                            float *fog);
+/* Fog without a fogmap into the device's fog layer (s->fog) on the buffers
+ * fp_integrate_cl_prepare filled, not read back, for a stage that adds to
+ * it there (filters/scatter_cl.c): the kernel of fp_integrate_pixels_cl
+ * with S = (1 - tau) color.  No fogmap, a perspective view without a clip
+ * plane. */
+int fp_integrate_height_layer_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
+                                 const fp_view_t *v, const int *pix, size_t npix,
+                                 const double color[3]);
 /* Fog without a fogmap composited over the plate on the device, in place:
  * rgba (RGBA, the working space) becomes tau * rgb + S per pixel, alpha
  * kept, bit for bit what fp_integrate_pixels_cl and fp_composite_process

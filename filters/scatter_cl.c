@@ -11,6 +11,7 @@
 
 #include "../kernels/fog_core.h"
 #include "../kernels/light_core.h"
+#include "../kernels/ms_core.h"
 
 static const float no_map[1] = { INFINITY };
 
@@ -113,17 +114,34 @@ int fp_scatter_pixels_cl(fp_scatter_cl_t *s, fp_integrate_cl_t *ic, const fp_sca
             return FP_ERR;
         }
     }
-    cl_kernel k = s->kernel;
-    if (FP_CL_ARG(k, 12, s->lt) || FP_CL_ARG(k, 13, s->smap) || FP_CL_ARG(k, 14, s->grid) ||
-        FP_CL_ARG(k, 15, s->lights) ||
-        fp_integrate_cl_launch(ic, k, v, pix, npix, out, "scatter_fog"))
-        return FP_ERR;
+    int nl = (int)d->lt[FP_LT_NLIGHTS];
+    int fast = d->lt[FP_LT_LIGHT_QUAD] != 0 && fog->fp[FP_F_HAS_MAP] == 0 && nl > 0;
+    /* Only the local lights of the fast rule, the ambient light and fog
+     * without a fogmap: what scatter_fog would give before them is tau and
+     * the ambient term's closed form (fp_scatter_ray_core's first return,
+     * fp_scatter_ambient_lights), S = albedo (1 - tau) L_amb: the SIMD
+     * kernel of height fog writes it (about 20x faster on the CPU device
+     * than scatter_fog's scalar work-items), left on the device for
+     * scatter_lights. */
+    int ambient = fast && d->lt[FP_LT_SUN_ON] == 0 && d->lt[FP_LT_NDIR] == 0 &&
+                  d->lt[FP_LT_MS_ON] == 0 && !v->ortho && !(v->clip > 0);
+    if (ambient) {
+        double amb[3];
+        for (int c = 0; c < 3; c++)
+            amb[c] = d->lt[FP_LT_ALBEDO] * d->lt[FP_LT_AMB + c];
+        if (fp_integrate_height_layer_cl(ic, fog, v, pix, npix, amb))
+            return FP_ERR;
+    } else {
+        cl_kernel k = s->kernel;
+        if (FP_CL_ARG(k, 12, s->lt) || FP_CL_ARG(k, 13, s->smap) || FP_CL_ARG(k, 14, s->grid) ||
+            FP_CL_ARG(k, 15, s->lights) ||
+            fp_integrate_cl_launch(ic, k, v, pix, npix, out, "scatter_fog"))
+            return FP_ERR;
+    }
     /* Local lights by the fast rule: scatter_fog left them out
      * (FP_LIGHTS_APART); one launch of scatter_lights adds them all to the
      * fog layer, 16 pixels per work-item (FP_LN_LANES). */
-    int nl = (int)d->lt[FP_LT_NLIGHTS];
-    if (!(d->lt[FP_LT_LIGHT_QUAD] != 0 && fog->fp[FP_F_HAS_MAP] == 0 && nl > 0) ||
-        (pix && npix == 0))
+    if (!fast || (pix && npix == 0))
         return FP_OK;
     const size_t lanes = 16;   /* FP_LN_LANES in kernels/scatter_lanes.h */
     cl_kernel lk = s->light_kernel;

@@ -295,6 +295,7 @@ FP_LN_FN fp_lnr fp_ln_gain(FP_GLOBAL const fp_real *row, int type, fp_lnr cu, fp
 }
 
 #include "cull_lanes.h"
+#include "light_band_lanes.h"
 
 /* fp_light_bound on lanes. */
 FP_LN_FN fp_lnr fp_ln_bound(FP_CONSTANT const fp_real *lt, FP_GLOBAL const fp_real *row,
@@ -411,6 +412,20 @@ FP_LN_FN fp_lnr fp_ln_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_r
     fp_lnr x = kink ? xk : xw;
     fp_lnr pe[5] = { fmin(a0, x), fmin(a1, fmax(a0, x)), fmin(a2, fmax(a1, x)),
                      fmin(a3, fmax(a2, x)), fmax(a3, x) };
+    /* Fog without a box: the nodes' optical depths from the heights of
+     * their ends (light_band_lanes.h). */
+    int plain = 1;
+    for (int i = 0; i < 6; i++)
+        plain &= isinf(fp[FP_F_BOX + i]) != 0;
+    int main_on = fp[FP_F_SIGMA] > 0, haze_on = fp[FP_F_HAZE] > 0;
+    fp_real yoff = fp[FP_F_OFF + 1];
+    fp_ln_band_t bm = { 0 }, bh = { 0 };
+    if (plain && main_on)
+        fp_ln_band_init(&bm, fp[FP_F_SIGMA], fp[FP_F_Y0], fp[FP_F_H], fp[FP_F_TOP], oy - yoff, dy,
+                        row[FP_LL_POS + 1] - yoff);
+    if (plain && haze_on)
+        fp_ln_band_init(&bh, fp[FP_F_HAZE], fp[FP_F_HAZE + 1], fp[FP_F_HAZE + 2],
+                        fp[FP_F_HAZE + 3], oy, dy, row[FP_LL_POS + 1]);
     fp_lnr acc = FP_LN(0);
     for (int piece = 0; piece < 4; piece++) {
         fp_lnr pa = pe[piece], pw = pe[piece + 1] - pe[piece];
@@ -418,20 +433,29 @@ FP_LN_FN fp_lnr fp_ln_fast(FP_CONSTANT const fp_real *fp, FP_CONSTANT const fp_r
             fp_lnr phi = pa + pw * fp_gl_x[FP_GL_FIRST(FP_LIGHT_NODES) + q];
             fp_lnr sp, cp;
             fp_ln_sincos(phi, &sp, &cp);
-            fp_lnr ks = k * sp, den = 1 / (cp * cp + ks * ks);
-            fp_lnr ce = (cp * cp - ks * ks) * den, se = 2 * ks * cp * den;
+            /* den = 1 / (cp^2 + ks^2) and 1 / c = (cp^2 + ks^2) / (2 ks cp)
+             * from one division. */
+            fp_lnr ks = k * sp, qq = cp * cp + ks * ks, m2 = ks * cp;
+            fp_lnr iv = 1 / (qq * m2);
+            fp_lnr den = m2 * iv;
+            fp_lnr ce = (cp * cp - ks * ks) * den, se = 2 * m2 * den;
             fp_lnr jac = 2 * k * den;
             fp_lnr s = -sgn * ce, c = se;
-            fp_lnr ic = 1 / c;
+            fp_lnr ic = (fp_real)0.5 * qq * qq * iv;
             fp_lnr t = tc + D * s * ic, r = D * ic;
             fp_lnr px = ox + t * dx, py = oy + t * dy, pz = oz + t * dz;
             fp_lnr ux = c * nx + s * dx, uy = c * ny + s * dy, uz = c * nz + s * dz;
             fp_lnr cone = FP_LN(1);
             if (type != FP_LIGHT_POINT || row[FP_LL_RADIUS] > 0)
                 cone = fp_ln_gain(row, type, c * na + s * da, ux, uy, uz, r);
-            fp_lnr sig = fp_ln_plain_sigma(fp, px, py, pz);
-            fp_lnr od = fp_ln_plain_od(fp, ox, oy, oz, dx, dy, dz, t) +
-                        fp_ln_plain_od(fp, px, py, pz, -ux, -uy, -uz, r);
+            fp_lnr sig, od;
+            if (plain) {
+                fp_ln_band_node(&bm, main_on, &bh, haze_on, t, py - yoff, py, uy, r, &sig, &od);
+            } else {
+                sig = fp_ln_plain_sigma(fp, px, py, pz);
+                od = fp_ln_plain_od(fp, ox, oy, oz, dx, dy, dz, t) +
+                     fp_ln_plain_od(fp, px, py, pz, -ux, -uy, -uz, r);
+            }
             fp_lnr f = sig * exp(-od) * cone * fp_ln_phase(kind, g, ph[2], -s) * jac;
             fp_lni keep = (f > 0) & (t >= ta) & (t <= tl);
             acc += fp_gl_w[FP_GL_FIRST(FP_LIGHT_NODES) + q] * pw * (keep ? f : FP_LN(0));
