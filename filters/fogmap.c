@@ -13,6 +13,10 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include "../kernels/fog_core.h"
 
@@ -565,8 +569,8 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
         return FP_ERR;
     }
     size_t ntensor = tnx ? (size_t)tnx * tny + 2 * (size_t)tnx + 2 * (size_t)tny : 0;
-    t->coef = malloc((ncoef + napprox + ntmaps + ntensor) * sizeof(float));
-    t->occ = malloc(nocc + 1);
+    t->coef = fp_fog_tables_alloc((ncoef + napprox + ntmaps + ntensor) * sizeof(float));
+    t->occ = fp_fog_tables_alloc(nocc + 1);
     if (!t->coef || !t->occ) {
         free(fine.coef);
         free(approx);
@@ -664,6 +668,20 @@ static int build_tables(const fp_fogmap_t *m, const float *img, double cell_to_f
     return FP_OK;
 }
 
+/* The fogmap's pixels from its file, negative values clamped (a warning). */
+static int read_fogmap(const char *path, const char *channel, float **img, int *w, int *h)
+{
+    int rc;
+    if ((rc = fp_image_file_check(path, "fogmap")) ||
+        (rc = fp_oiio_read_channel(path, channel, img, w, h)))
+        return rc;
+    fp_fogmap_clamp_negative(path, *img, *w, *h);
+    return FP_OK;
+}
+
+static int setup_stage(const fp_params_t *p, fp_cl_t *cl, float **img, const char *path, int w,
+                       int h, fp_fogmap_stage_t *s, fp_integrate_data_t *d);
+
 int fp_fogmap_commit(const fp_params_t *p, fp_cl_t *cl, fp_fogmap_stage_t *s,
                      fp_integrate_data_t *d, int *active)
 {
@@ -692,11 +710,9 @@ int fp_fogmap_commit(const fp_params_t *p, fp_cl_t *cl, fp_fogmap_stage_t *s,
     }
     float *img = NULL;
     int w, h;
-    if ((rc = fp_image_file_check(path, "fogmap")) ||
-        (rc = fp_oiio_read_channel(path, fm->channel, &img, &w, &h)))
+    if ((rc = read_fogmap(path, fm->channel, &img, &w, &h)))
         return rc;
-    fp_fogmap_clamp_negative(path, img, w, h);
-    rc = fp_fogmap_setup(p, cl, img, w, h, s, d);
+    rc = setup_stage(p, cl, &img, path, w, h, s, d);
     if (rc == FP_OK && fp_animate_fogmap_animated(p))
         rc = fp_fogmap_animate(p, img, w, h, s, d);
     free(img);
@@ -715,8 +731,21 @@ int fp_fogmap_animate(const fp_params_t *p, const float *img, int w, int h,
 int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, int h,
                     fp_fogmap_stage_t *s, fp_integrate_data_t *d)
 {
+    float *pixels = (float *)img;   /* only read: no path to read it again from */
+    return setup_stage(p, cl, &pixels, NULL, w, h, s, d);
+}
+
+/* fp_fogmap_setup from *imgp; with `path` (the file *imgp was read from,
+ * the caller's to free) the pixels are freed before a cache hit's tables
+ * are read (*imgp NULL then), and read again should the hit fail: the
+ * program's heap keeps what it frees (cli/main.c), so a 4096 map's 64 MB
+ * of pixels stayed resident beside its 200 MB of tables (issue 26). */
+static int setup_stage(const fp_params_t *p, fp_cl_t *cl, float **imgp, const char *path, int w,
+                       int h, fp_fogmap_stage_t *s, fp_integrate_data_t *d)
+{
     const fp_fogmap_params_t *fm = &p->fogmap;
     const double *r = fm->rect;
+    const float *img = *imgp;
     int rc;
     memset(s, 0, sizeof *s);
     if ((rc = fp_fogmap_check_values(fm->fogmap ? fm->fogmap : "fogmap", img, w, h,
@@ -726,7 +755,28 @@ int fp_fogmap_setup(const fp_params_t *p, fp_cl_t *cl, const float *img, int w, 
     fp_fogmap_cache_t fc;
     if ((rc = fp_fogmap_cache_open(p, cl, img, w, h, &fc)))
         return rc;
+    /* A cache file (never for an animated or previewed map) makes the
+     * pixels unneeded. */
+    if (path && fc.path && access(fc.path, R_OK) == 0) {
+        free(*imgp);
+        *imgp = NULL;
+        img = NULL;
+#ifdef __GLIBC__
+        /* Its pages (and the image reader's) back to the system: the
+         * program's heap is never trimmed otherwise. */
+        malloc_trim(0);
+#endif
+    }
     int cached = fp_fogmap_cache_load(&fc, &s->map, &s->tables);
+    int w2 = w, h2 = h;
+    if (!cached && !img && (rc = read_fogmap(path, fm->channel, imgp, &w2, &h2)) == FP_OK &&
+        (w2 != w || h2 != h))
+        rc = fp_error("%s: changed while it was read (%dx%d, then %dx%d)", path, w, h, w2, h2);
+    if (rc) {
+        fp_fogmap_cache_close(&fc);
+        return rc;
+    }
+    img = *imgp;
     s->used_cl = cached && cl;
     rc = cached ? FP_OK : FP_ERR;
     if (rc && cl) {

@@ -246,8 +246,8 @@ int fp_fogmap_cache_load(const fp_fogmap_cache_t *c, fp_fogmap_t *m, fp_fog_tabl
         why = "inconsistent sizes";
         goto fail;
     }
-    t->coef = malloc(fx.ncoef ? fx.ncoef * sizeof(float) : 1);
-    t->occ = malloc(fx.nocc ? fx.nocc : 1);
+    t->coef = fp_fog_tables_alloc(fx.ncoef * sizeof(float));
+    t->occ = fp_fog_tables_alloc(fx.nocc);
     if (!t->coef || !t->occ) {
         why = "out of memory";
         goto fail;

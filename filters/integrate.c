@@ -324,13 +324,33 @@ static int ensure_capacity(fp_integrate_cl_t *s, size_t n)
     return FP_OK;
 }
 
-/* The fogmap tables go to the device once, not per frame. */
+void *fp_fog_tables_alloc(size_t n)
+{
+    void *m = NULL;
+    return posix_memalign(&m, 4096, n ? n : 1) == 0 ? m : NULL;
+}
+
+/* A read-only device buffer of the n bytes at host: the host's memory
+ * itself where the device works in it and host is aligned as it wants
+ * (no second copy of a big fogmap's tables: 200 MB for a 4096 map), else
+ * the device's copy. */
+static cl_mem table_buffer(fp_integrate_cl_t *s, const void *host, size_t n, cl_int *err)
+{
+    cl_mem_flags how = s->host_align && (uintptr_t)host % s->host_align == 0
+                           ? CL_MEM_USE_HOST_PTR : CL_MEM_COPY_HOST_PTR;
+    return clCreateBuffer(fp_cl_context(s->cl), CL_MEM_READ_ONLY | how, n, (void *)host, err);
+}
+
+/* The fogmap tables go to the device once, not per frame.  On a device in
+ * the host's memory the buffers are the tables themselves: the fogmap
+ * stage keeps them until these buffers are released (the tables of the
+ * frame before stay while a new set is uploaded, filters/fogmap.c; the run
+ * releases the device before the fogmap stage, lib/pipeline.c). */
 static int upload_tables(fp_integrate_cl_t *s, const fp_fog_tables_t *t)
 {
     unsigned long serial = t ? t->serial : 0;
     if (s->coef && s->uploaded == serial)
         return FP_OK;
-    cl_context ctx = fp_cl_context(s->cl);
     cl_command_queue q = fp_cl_queue(s->cl);
     if (s->coef)
         clReleaseMemObject(s->coef);
@@ -341,11 +361,10 @@ static int upload_tables(fp_integrate_cl_t *s, const fp_fog_tables_t *t)
     const void *coef = t ? (const void *)t->coef : no_coef;
     size_t ncoef = t ? t->ncoef : 1, nocc = t ? t->nocc : 1;
     const void *occ = t ? (const void *)t->occ : no_occ;
-    s->coef = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ncoef * sizeof(float),
-                             (void *)coef, &err);
+    s->coef = table_buffer(s, coef, ncoef * sizeof(float), &err);
     if (fp_cl_check(err, "integrate: fogmap coefficients"))
         return FP_ERR;
-    s->occ = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, nocc, (void *)occ, &err);
+    s->occ = table_buffer(s, occ, nocc, &err);
     if (fp_cl_check(err, "integrate: fogmap occupancy"))
         return FP_ERR;
     float lvf[FP_LEVEL_TABLE * FP_LR_STRIDE];

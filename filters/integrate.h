@@ -32,6 +32,12 @@ typedef struct fp_fog_tables_t {
  * code and the device buffers take pointers either way), and the
  * arguments the kernels' C versions take. */
 const fp_fog_tables_t *fp_fog_tables_or_empty(const fp_fog_tables_t *t);
+/* Memory for a table (coef, occ) of n bytes, page-aligned so that a device
+ * working in the host's memory (PoCL's CPU device) uses it as is, without a
+ * copy of its own (fp_integrate_cl_prepare: CL_MEM_USE_HOST_PTR, the tables
+ * then outliving the device's buffers); free() frees it.  NULL when out of
+ * memory. */
+void *fp_fog_tables_alloc(size_t n);
 #define FP_TABLES3(t) (t)->lvi, (t)->lvf, (t)->coef
 #define FP_TABLES(t) FP_TABLES3(t), (t)->occ
 

@@ -8,6 +8,7 @@
 #define FP_FOGMAP_WALK_H
 
 #include "fog_params.h"
+#include "fogmap_cubic.h"
 
 /* ------------------------------------------------------------------ */
 /* One walk per ray.  The sum of levels 0..l of the deconstructed fogmap,
@@ -330,6 +331,8 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         fp_real seg;
         if (d == 1) {
             seg = fp_bilinear_seg(c[0], c[1], c[4], c[5], px, qx, py, qy, lam, u, &E);
+        } else if (d == 3) {
+            seg = fp_cubic_seg(c, px, qx, py, qy, u, &E);
         } else {
             fp_real P[7];
             fp_cell_poly(d, c, px, qx, py, qy, P);

@@ -837,13 +837,13 @@ done:
     return rc;
 }
 
-/* What setup, fp_color_commit, fp_preview_commit and open_device made. */
+/* What setup, fp_color_commit, fp_preview_commit and open_device made.
+ * The device's buffers before the fogmap's tables: on a device in the
+ * host's memory they are the tables (fp_fog_tables_alloc). */
 static void run_release(run_t *r)
 {
     fp_preview_release(&r->preview);
     fp_color_release(&r->color);
-    fp_fogmap_release(&r->fogmap);
-    fp_scatter_release(&r->light);
     fp_rig_file_free(r->rigfile);
     r->rigfile = NULL;
     if (r->cl) {
@@ -856,6 +856,8 @@ static void run_release(run_t *r)
         fp_cl_close(r->cl);
         r->cl = NULL;
     }
+    fp_fogmap_release(&r->fogmap);
+    fp_scatter_release(&r->light);
     for (size_t i = 0; i < FP_ARRAY_LEN(r->pool); i++) {
         free(r->pool[i]);
         r->pool[i] = NULL;

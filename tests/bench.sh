@@ -35,6 +35,9 @@ trap 'rm -rf "$tmp"' EXIT
   # Issue 26: a detailed 4096x4096 fogmap, its set-up cached across runs.
   sh "$(dirname "$0")/bench_bigmap.sh" "$tmp/seed/scene.0001.exr" "$tmp/seed/fogmap.exr" \
     "$tmp/bigmap" && echo
+  # Issue 26: the cubic basis with exact self-shadowing against the linear.
+  "$FP_SCENE" -o "$tmp/cubic" --width 160 --height 90 --frames 1-1 >/dev/null
+  sh "$(dirname "$0")/bench_cubic.sh" "$tmp/cubic" "$tmp/cubicw" && echo
   # Fog self-shadowing: the default grid's cost and error (the looks' frames).
   if [ -n "${FP_BENCH_SELFSHADOW:-}" ]; then
     "$FP_BENCH_SELFSHADOW" "$tmp/looks/small" "$tmp/looks/mid" && echo
