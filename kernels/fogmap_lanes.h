@@ -58,14 +58,16 @@ FP_LN_FN float16 fp_gather16(__global const float *cf, int16 i)
                      cf[i.se], cf[i.sf]);
 }
 
-/* sum_j c_j z^j, j < 8, as fp_estrin (FP_SEG_POW2 8): the same pairs. */
-FP_LN_FN float16 fp_estrin8_lanes(const float16 *c, float16 z)
-{
-    float16 z2 = z * z, z4 = z2 * z2;
-    float16 e0 = (c[0] + c[1] * z) + (c[2] + c[3] * z) * z2;
-    float16 e1 = (c[4] + c[5] * z) + (c[6] + c[7] * z) * z2;
-    return e0 + e1 * z4;
-}
+/* sum_j c_j z^j, j < 8, in fp_estrin's pairs, z2 = z^2, z4 = z^4. */
+#define FP_LN_EST(c0, c1, c2, c3, c4, c5, c6, c7, z, z2, z4)                                     \
+    (((c0) + (c1) * (z)) + ((c2) + (c3) * (z)) * (z2) +                                         \
+     (((c4) + (c5) * (z)) + ((c6) + (c7) * (z)) * (z2)) * (z4))
+/* 1 / (j! (k + j + 1)), zero from j = FP_SEG_TERMS (7) on. */
+#define FP_LN_MC(j, k) (fp_invfact[j] * fp_recip[(j) + (k)])
+/* M_k(z) = sum_j z^j / (j! (k + j + 1)), the series' first FP_SEG_TERMS terms. */
+#define FP_LN_M(k, z, z2, z4)                                                                    \
+    FP_LN_EST(FP_LN_MC(0, k), FP_LN_MC(1, k), FP_LN_MC(2, k), FP_LN_MC(3, k), FP_LN_MC(4, k),    \
+              FP_LN_MC(5, k), FP_LN_MC(6, k), 0.0f, z, z2, z4)
 
 /* The optical depth of the fogmap's fog (fp_fogmap_od's, sigma times the
  * walk) along the rays from the point o in the unit directions d, t in
@@ -166,14 +168,16 @@ FP_LN_FN float16 fp_fogmap_od_lanes(__constant const float *fp, __constant const
         if (flat_h) {
             seg = P0 * fp_recip[0] + P1 * fp_recip[1] + P2 * fp_recip[2];
         } else {
-            float16 cs[8], ce[8];
-            for (int j = 0; j < 8; j++) {
-                float f = j < FP_SEG_TERMS ? fp_invfact[j] : 0.0f;
-                cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
-                ce[j] = (float16)f;
-            }
-            E = fp_estrin8_lanes(ce, -u);
-            seg = fp_estrin8_lanes(cs, -u);
+            /* fp_bilinear_seg's series sum_j (-u)^j / j! sum_k P_k / (k + j + 1)
+             * regrouped as sum_k P_k M_k(-u), M_k(z) = sum_j z^j / (j! (k + j + 1)):
+             * polynomials with constant coefficients (a loop over j building
+             * the series' coefficients per lane went through memory, a sixth
+             * of the kernel), and exp(-u) by the same series. */
+            float16 z = -u, z2 = z * z, z4 = z2 * z2;
+            seg = P0 * FP_LN_M(0, z, z2, z4) + P1 * FP_LN_M(1, z, z2, z4) +
+                  P2 * FP_LN_M(2, z, z2, z4);
+            E = FP_LN_EST(fp_invfact[0], fp_invfact[1], fp_invfact[2], fp_invfact[3],
+                          fp_invfact[4], fp_invfact[5], fp_invfact[6], 0.0f, z, z2, z4);
         }
         sum += run ? ha * len_s * seg : (float16)0.0f;
         hc = ha * E;
