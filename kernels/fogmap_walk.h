@@ -137,17 +137,6 @@ FP_HOT void fp_cell_poly(const int d, const fp_real *c, fp_real px, fp_real qx, 
     }
 }
 
-/* M_k(z) = sum_j z^j / (j! (k + j + 1)), j < FP_SEG_TERMS, by fp_estrin;
- * k = -1: sum_j z^j / j!, exp(z) by the same series. */
-FP_HOT fp_real fp_series_m(const int k, fp_real z)
-{
-    fp_real c[FP_SEG_POW2];
-    for (int j = 0; j < FP_SEG_POW2; j++)
-        c[j] = j >= FP_SEG_TERMS ? (fp_real)0
-                                 : k < 0 ? fp_invfact[j] : fp_invfact[j] * fp_recip[j + k];
-    return fp_estrin(c, z);
-}
-
 /* int_0^1 F(x) exp(-u x) dx over one segment of a bilinear cell, F =
  * g0 + g1 sx + g2 sy + g3 sx sy through the corner values c0 (0,0), c1
  * (1,0), c4 (0,1), c5 (1,1), the segment from local (px, py) by (qx, qy),
@@ -165,11 +154,14 @@ FP_HOT fp_real fp_bilinear_seg(fp_real c0, fp_real c1, fp_real c4, fp_real c5, f
     fp_real P2 = g3 * qx * qy;
     if (lam == 0)
         return P0 * fp_recip[0] + P1 * fp_recip[1] + P2 * fp_recip[2];
-    /* sum_j (-u)^j / j! sum_k P_k / (k + j + 1) = sum_k P_k M_k(-u): three
-     * series with constant coefficients (fp_series_m), where building the
-     * series' coefficients from P per segment went through memory. */
-    *E = fp_series_m(-1, -u);
-    return P0 * fp_series_m(0, -u) + P1 * fp_series_m(1, -u) + P2 * fp_series_m(2, -u);
+    fp_real cs[FP_SEG_POW2], ce[FP_SEG_POW2];
+    for (int j = 0; j < FP_SEG_POW2; j++) {
+        fp_real f = j < FP_SEG_TERMS ? fp_invfact[j] : (fp_real)0;
+        cs[j] = f * (P0 * fp_recip[j] + P1 * fp_recip[j + 1] + P2 * fp_recip[j + 2]);
+        ce[j] = f;
+    }
+    *E = fp_estrin(ce, -u);
+    return fp_estrin(cs, -u);
 }
 
 /* Bounded level of detail (--lod-bound).  Each cell of level l's grid
