@@ -224,7 +224,8 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s)
         fp_cl_kernel(prog, "integrate_height", &s->height) ||
         fp_cl_kernel(prog, "integrate_height_list", &s->height_list) ||
         fp_cl_kernel(prog, "integrate_height_over", &s->height_over) ||
-        fp_cl_kernel(prog, "integrate_fogmap", &s->fogmap))
+        fp_cl_kernel(prog, "integrate_fogmap", &s->fogmap) ||
+        fp_cl_kernel(prog, "integrate_fogmap_list", &s->fogmap_list))
         return FP_ERR;
     cl_int err;
     cl_context ctx = fp_cl_context(cl);
@@ -420,7 +421,7 @@ static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pi
     }
     return run_read_layer(s, k, npix ? 1 : 2, global, NULL, npix ? npix : (size_t)w * h, fog,
                           over ? 2 : 1,
-                          lanes_k ? "integrate_fogmap"
+                          lanes_k ? (npix ? "integrate_fogmap_list" : "integrate_fogmap")
                                   : over ? "integrate_height_over" : "integrate_height");
 }
 
@@ -451,8 +452,9 @@ int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
      * (fp_view_origin_at). */
     if (d->fp[FP_F_HAS_MAP] == 0 && !v->ortho && !(v->clip > 0))
         return launch_height(s, v, pix, npix, color, fog, 0, s->depth, NULL);
-    if (!pix && !s->no_lanes && fp_integrate_lanes_ok(d, v))
-        return launch_height(s, v, NULL, 0, color, fog, 0, s->depth, s->fogmap);
+    if (!s->no_lanes && fp_integrate_lanes_ok(d, v))
+        return launch_height(s, v, pix, npix, color, fog, 0, s->depth,
+                             pix && npix ? s->fogmap_list : s->fogmap);
     return fp_integrate_cl_launch(s, s->kernel, v, pix, npix, fog, "integrate_fog");
 }
 
@@ -547,7 +549,8 @@ void fp_integrate_cl_release(fp_integrate_cl_t *s)
 {
     cl_mem *mems[] = { &s->depth, &s->fog, &s->view, &s->params, &s->lvi, &s->lvf, &s->coef,
                        &s->occ, &s->pix };
-    cl_kernel kernels[] = { s->kernel, s->height, s->height_list, s->height_over, s->fogmap };
+    cl_kernel kernels[] = { s->kernel,      s->height, s->height_list,
+                            s->height_over, s->fogmap, s->fogmap_list };
     for (size_t i = 0; i < FP_ARRAY_LEN(kernels); i++)
         if (kernels[i])
             clReleaseKernel(kernels[i]);

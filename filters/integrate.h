@@ -75,7 +75,7 @@ typedef struct fp_integrate_cl_t {
     cl_kernel kernel;
     cl_kernel height, height_list;        /* fog without a fogmap: branch-free, SIMD on PoCL */
     cl_kernel height_over;                /* the same, composited over the plate in place */
-    cl_kernel fogmap;                     /* a linear fogmap walked exactly, 16 rays a work-item */
+    cl_kernel fogmap, fogmap_list;        /* a linear fogmap walked exactly, 16 rays a work-item */
     int no_lanes;                         /* tests: integrate_fog even where integrate_fogmap
                                              would do */
     cl_mem depth, fog, view, params, lvi, lvf, coef, occ;

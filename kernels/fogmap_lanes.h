@@ -13,7 +13,9 @@
  * segment and computed anew every 8th; the C double reference
  * (fp_fog_od) is the judge (tests/test_fogmap_lanes.c).
  *
- * Used by integrate_fogmap (kernels/integrate.cl) where the host's
+ * Used by integrate_fogmap and integrate_fogmap_list (kernels/integrate.cl;
+ * a lane's result does not depend on its neighbours, so a listed pixel
+ * gets the frame's value to the bit) where the host's
  * fp_integrate_lanes_ok holds: a fogmap of the linear basis walked exactly
  * (no --lod-bound, --lod-mu 1 or one level, no --lod-footprint, no
  * --min-transmittance, exact mode, every level summed into A_l), wrap zero

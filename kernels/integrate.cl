@@ -274,3 +274,33 @@ __kernel void integrate_fogmap(__global const float *restrict depth,
                                  vload16(0, ld));
     height_fog_store(fog_out + 4 * (row + x0), n, exp(-od), fog_color);
 }
+
+/* integrate_fogmap on the pixels pix[0 .. npix) (indices y * width + x),
+ * results in list order, 16 per work-item: each lane's ray is walked as
+ * in the whole frame's kernel, whatever its neighbours, so a listed pixel
+ * gets the frame's value. */
+__kernel void integrate_fogmap_list(__global const float *restrict depth,
+                                    __global float *restrict fog_out,
+                                    __constant const float *restrict view, const int width,
+                                    const int height, __constant const float *restrict fp,
+                                    __constant const int *lvi, __constant const float *lvf,
+                                    __global const float *coef, __global const uchar *occ,
+                                    __global const int *restrict pix, const int npix,
+                                    const float4 fog_color)
+{
+    int k0 = (int)get_global_id(0) * FP_SIMD;
+    if (k0 >= npix)
+        return;
+    int n = min(FP_SIMD, npix - k0);
+    float lx[16], ly[16], ld[16];
+    for (int k = 0; k < FP_SIMD; k++) {
+        int p = pix[k0 + min(k, n - 1)];
+        int y = p / width;
+        lx[k] = (float)(p - y * width);
+        ly[k] = (float)y;
+        ld[k] = depth[p];
+    }
+    float16 od = fp_fog_od_lanes(view, fp, lvi, lvf, coef, vload16(0, lx), vload16(0, ly),
+                                 vload16(0, ld));
+    height_fog_store(fog_out + 4 * (size_t)k0, n, exp(-od), fog_color);
+}

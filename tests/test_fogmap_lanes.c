@@ -5,7 +5,8 @@
  * choose among: wrap zero and repeat, a finite or no top, a height
  * falloff or none (H infinite), haze, a moved and turned fog in a box the
  * camera is inside or outside of, sky pixels, level rays, a frame width
- * that is not a multiple of 16, one level and several. */
+ * that is not a multiple of 16, one level and several; a pixel list
+ * (integrate_fogmap_list) gets the whole frame's values. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -86,6 +87,8 @@ static void test_lanes_against_reference(void **state)
     size_t n = (size_t)w * h;
     float *depth = malloc(n * sizeof(float)), *ref = malloc(n * 4 * sizeof(float)),
           *got = malloc(n * 4 * sizeof(float)), *one = malloc(n * 4 * sizeof(float));
+    int *pix = malloc((n / 3 + 1) * sizeof *pix);
+    float *lst = malloc((n / 3 + 1) * 4 * sizeof *lst);
     for (size_t k = 0; k < FP_ARRAY_LEN(cases); k++) {
         const lanes_case_t *c = &cases[k];
         fp_params_t p;
@@ -123,6 +126,14 @@ static void test_lanes_against_reference(void **state)
         print_message("%s: lanes vs C reference max |dtau| %.2e (one ray a work-item %.2e; "
                       "lanes vs one ray %.2e; tolerance 1e-5)\n",
                       c->name, worst, worst_one, vs_one);
+        /* A pixel list (every 3rd pixel, out of order): the frame's values. */
+        size_t m = test_pixel_list(n, pix);
+        s.no_lanes = 0;
+        assert_int_equal(fp_integrate_pixels_cl(&s, &d, &v, depth, pix, m, lst), FP_OK);
+        double list_diff = test_list_diff(got, pix, m, lst);
+        print_message("%s: pixel list of %zu vs the whole frame %.2e (bound 0)\n", c->name, m,
+                      list_diff);
+        assert_true(list_diff == 0);
         fp_fogmap_release(&st);
         fp_options_free(&p);
         free(img);
@@ -131,6 +142,8 @@ static void test_lanes_against_reference(void **state)
     free(ref);
     free(got);
     free(one);
+    free(pix);
+    free(lst);
     fp_integrate_cl_release(&s);
     fp_cl_close(cl);
 }
