@@ -432,8 +432,7 @@ int fp_integrate_lanes_ok(const fp_integrate_data_t *d, const fp_view_t *v)
     return f[FP_F_HAS_MAP] != 0 && d->tables && d->tables->lvi[FP_LI_APPROX] >= 0 &&
            (int)f[FP_F_MODE] == 0 && (int)f[FP_F_DEGREE] == 1 && (int)f[FP_F_WRAP] != 1 &&
            !(f[FP_F_LOD_BOUND] > 0) && !(f[FP_F_FOOTPRINT] > 0) &&
-           (nl < 2 || f[FP_F_LOD_MU] >= 1) && isinf(f[FP_F_OD_MAX]) && !v->ortho &&
-           !(v->clip > 0);
+           (nl < 2 || f[FP_F_LOD_MU] >= 1) && isinf(f[FP_F_OD_MAX]) && !v->ortho;
 }
 
 int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,

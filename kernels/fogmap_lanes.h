@@ -19,8 +19,8 @@
  * fp_integrate_lanes_ok holds: a fogmap of the linear basis walked exactly
  * (no --lod-bound, --lod-mu 1 or one level, no --lod-footprint, no
  * --min-transmittance, exact mode, every level summed into A_l), wrap zero
- * or repeat (clamp's pieces bend the path), rays from one point (a
- * perspective camera without --clip-start).  OpenCL only. */
+ * or repeat (clamp's pieces bend the path), a perspective camera (with or
+ * without --clip-start).  OpenCL only. */
 #ifndef FP_FOGMAP_LANES_H
 #define FP_FOGMAP_LANES_H
 
@@ -76,27 +76,27 @@ FP_LN_FN float16 fp_gather16(__global const float *cf, int16 i)
  * [0, len] (len infinite for the sky), on lanes. */
 FP_LN_FN float16 fp_fogmap_od_lanes(__constant const float *fp, __constant const int *lvi,
                                     __constant const float *lvf, __global const float *coef,
-                                    float ox, float oy, float oz, float16 dx, float16 dy,
-                                    float16 dz, float16 len)
+                                    float16 ox, float16 oy, float16 oz, float16 dx,
+                                    float16 dy, float16 dz, float16 len)
 {
     /* fp_fogmap_path: the fog-local frame, the box, the top, the clip
      * rectangle (wrap zero). */
     float c = fp[FP_F_COS], s = fp[FP_F_SIN];
-    float px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
-    float qx = c * px - s * pz, qz = s * px + c * pz;
+    float16 px = ox - fp[FP_F_OFF], py = oy - fp[FP_F_OFF + 1], pz = oz - fp[FP_F_OFF + 2];
+    float16 qx = c * px - s * pz, qz = s * px + c * pz;
     float16 ex = c * dx - s * dz, ez = s * dx + c * dz;
     float16 a = (float16)0.0f, b = len;
-    fp_clip_lanes((float16)qx, ex, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a, &b);
-    fp_clip_lanes((float16)py, dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
-    fp_clip_lanes((float16)qz, ez, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], &a, &b);
-    fp_clip_lanes((float16)py, dy, -INFINITY, fp[FP_F_TOP], &a, &b);
-    float u0 = (qx - fp[FP_F_A0]) * fp[FP_F_USCALE] + fp[FP_F_PAD_X0];
+    fp_clip_lanes(qx, ex, fp[FP_F_BOX], fp[FP_F_BOX + 3], &a, &b);
+    fp_clip_lanes(py, dy, fp[FP_F_BOX + 1], fp[FP_F_BOX + 4], &a, &b);
+    fp_clip_lanes(qz, ez, fp[FP_F_BOX + 2], fp[FP_F_BOX + 5], &a, &b);
+    fp_clip_lanes(py, dy, -INFINITY, fp[FP_F_TOP], &a, &b);
+    float16 u0 = (qx - fp[FP_F_A0]) * fp[FP_F_USCALE] + fp[FP_F_PAD_X0];
     float16 du = ex * fp[FP_F_USCALE];
-    float v0 = (qz - fp[FP_F_B0]) * fp[FP_F_VSCALE] + fp[FP_F_PAD_Y0];
+    float16 v0 = (qz - fp[FP_F_B0]) * fp[FP_F_VSCALE] + fp[FP_F_PAD_Y0];
     float16 dv = ez * fp[FP_F_VSCALE];
     if ((int)fp[FP_F_WRAP] == 0) {
-        fp_clip_lanes((float16)u0, du, fp[FP_F_CLIP], fp[FP_F_CLIP + 1], &a, &b);
-        fp_clip_lanes((float16)v0, dv, fp[FP_F_CLIP + 2], fp[FP_F_CLIP + 3], &a, &b);
+        fp_clip_lanes(u0, du, fp[FP_F_CLIP], fp[FP_F_CLIP + 1], &a, &b);
+        fp_clip_lanes(v0, dv, fp[FP_F_CLIP + 2], fp[FP_F_CLIP + 3], &a, &b);
     }
     float y0 = fp[FP_F_Y0], H = fp[FP_F_H];
     /* fp_fogmap_cap where b is infinite. */
@@ -114,8 +114,8 @@ FP_LN_FN float16 fp_fogmap_od_lanes(__constant const float *fp, __constant const
     int nx = lvi[L * FP_LI_STRIDE + FP_LI_NX], ny = lvi[L * FP_LI_STRIDE + FP_LI_NY];
     __global const float *cf = coef + lvi[L * FP_LI_STRIDE + FP_LI_APPROX];
     float cell = lvf[L * FP_LR_STRIDE + FP_LR_CELL];
-    float xs = (u0 - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cell;
-    float ys = (v0 - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cell;
+    float16 xs = (u0 - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_U]) / cell;
+    float16 ys = (v0 - lvf[L * FP_LR_STRIDE + FP_LR_ORIGIN_V]) / cell;
     float16 dxdt = du / cell, dydt = dv / cell;
     dxdt = live ? dxdt : (float16)0.0f;
     dydt = live ? dydt : (float16)0.0f;
@@ -201,12 +201,13 @@ FP_LN_FN float16 fp_fogmap_od_lanes(__constant const float *fp, __constant const
     return fp[FP_F_SIGMA] * sum;
 }
 
-/* The view rays of pixels (x, y) (fp_view_ray's, a perspective camera
- * without a clip plane): unit directions *dx, *dy, *dz and lengths *len
- * (infinite for the sky), on lanes. */
+/* The view rays of pixels (x, y) (fp_view_ray's and fp_view_origin_at's,
+ * a perspective camera): origins *ox, *oy, *oz (the camera, or the rays'
+ * points on the clip plane), unit directions *dx, *dy, *dz and lengths
+ * *len (infinite for the sky), on lanes. */
 FP_LN_FN void fp_view_ray_lanes(__constant const float *view, float16 x, float16 y,
-                                float16 depth, float16 *dx, float16 *dy, float16 *dz,
-                                float16 *len)
+                                float16 depth, float16 *ox, float16 *oy, float16 *oz,
+                                float16 *dx, float16 *dy, float16 *dz, float16 *len)
 {
     __constant const float *h = view + FP_VIEW_H;
     __constant const float *m = view + FP_VIEW_M;
@@ -232,26 +233,41 @@ FP_LN_FN void fp_view_ray_lanes(__constant const float *view, float16 x, float16
     }
     sky |= isinf(z) | (z >= 1e10f) | (z >= view[FP_VIEW_FAR]);
     *len = sky ? (float16)INFINITY : l * scale;
+    *ox = (float16)view[0];
+    *oy = (float16)view[1];
+    *oz = (float16)view[2];
+    /* From the clip plane: l * clip along the ray, starting there. */
+    float clip = view[FP_VIEW_CLIP];
+    if (clip > 0.0f) {
+        *len = sky ? *len : fmax(*len - l * clip, (float16)0.0f);
+        *ox += clip * ddx;
+        *oy += clip * ddy;
+        *oz += clip * ddz;
+    }
     *dx = ddx / l;
     *dy = ddy / l;
     *dz = ddz / l;
 }
 
 /* fp_fog_od with a fogmap on the lanes: the haze (closed form) and the
- * fogmap's walk, rays from the camera at view[0..2]. */
+ * fogmap's walk, the view rays of pixels (x, y). */
 FP_LN_FN float16 fp_fog_od_lanes(__constant const float *view, __constant const float *fp,
                                  __constant const int *lvi, __constant const float *lvf,
                                  __global const float *coef, float16 x, float16 y,
                                  float16 depth)
 {
-    float16 dx, dy, dz, len;
-    fp_view_ray_lanes(view, x, y, depth, &dx, &dy, &dz, &len);
+    float16 ox, oy, oz, dx, dy, dz, len;
+    fp_view_ray_lanes(view, x, y, depth, &ox, &oy, &oz, &dx, &dy, &dz, &len);
     float16 od = (float16)0.0f;
-    if (fp[FP_F_HAZE] > 0)
+    /* The haze from one height (the camera's), or each ray's own (from
+     * the clip plane). */
+    if (fp[FP_F_HAZE] > 0 && !(view[FP_VIEW_CLIP] > 0.0f))
         od = fp_height_od_from_bf(fp[FP_F_HAZE], fp[FP_F_HAZE + 1], fp[FP_F_HAZE + 2],
                                   fp[FP_F_HAZE + 3], view[1], dy, 1.0f / dy, len);
-    return od + fp_fogmap_od_lanes(fp, lvi, lvf, coef, view[0], view[1], view[2], dx, dy, dz,
-                                   len);
+    else if (fp[FP_F_HAZE] > 0)
+        od = fp_height_od_bf(fp[FP_F_HAZE], fp[FP_F_HAZE + 1], fp[FP_F_HAZE + 2],
+                             fp[FP_F_HAZE + 3], oy, dy, 1.0f / dy, len);
+    return od + fp_fogmap_od_lanes(fp, lvi, lvf, coef, ox, oy, oz, dx, dy, dz, len);
 }
 
 #endif

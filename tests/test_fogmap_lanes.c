@@ -4,7 +4,8 @@
  * against the one-ray kernel integrate_fog, over the cases its lanes
  * choose among: wrap zero and repeat, a finite or no top, a height
  * falloff or none (H infinite), haze, a moved and turned fog in a box the
- * camera is inside or outside of, sky pixels, level rays, a frame width
+ * camera is inside or outside of, rays from a clip plane (--clip-start),
+ * sky pixels, level rays, a frame width
  * that is not a multiple of 16, one level and several; a pixel list
  * (integrate_fogmap_list) gets the whole frame's values. */
 #include <setjmp.h>
@@ -29,16 +30,18 @@
 typedef struct lanes_case_t {
     const char *name;
     int wrap, levels, boxed, haze, flat;
-    double top, cam_y, pitch;
+    double top, cam_y, pitch, clip;
 } lanes_case_t;
 
 static const lanes_case_t cases[] = {
-    { "zero, 3 levels", 0, 3, 0, 0, 0, INFINITY, 2, -20 },
-    { "repeat, 3 levels, top 12", 2, 3, 0, 0, 0, 12, 2, -20 },
-    { "zero, 1 level, haze", 0, 1, 0, 1, 0, INFINITY, 6, -10 },
-    { "repeat, no falloff (H infinite)", 2, 2, 0, 0, 1, INFINITY, 3, -5 },
-    { "zero, box turned, camera outside", 0, 3, 1, 0, 0, INFINITY, 10, -30 },
-    { "repeat, box turned, camera inside, haze", 2, 3, 2, 1, 0, 9, 2, 0 },
+    { "zero, 3 levels", 0, 3, 0, 0, 0, INFINITY, 2, -20, 0 },
+    { "repeat, 3 levels, top 12", 2, 3, 0, 0, 0, 12, 2, -20, 0 },
+    { "zero, 1 level, haze", 0, 1, 0, 1, 0, INFINITY, 6, -10, 0 },
+    { "repeat, no falloff (H infinite)", 2, 2, 0, 0, 1, INFINITY, 3, -5, 0 },
+    { "zero, box turned, camera outside", 0, 3, 1, 0, 0, INFINITY, 10, -30, 0 },
+    { "repeat, box turned, camera inside, haze", 2, 3, 2, 1, 0, 9, 2, 0, 0 },
+    { "zero, from a clip plane 1.5 out, haze", 0, 3, 0, 1, 0, INFINITY, 2, -20, 1.5 },
+    { "repeat, box turned, from a clip plane 4 out", 2, 3, 2, 0, 0, 9, 2, -10, 4 },
 };
 
 static void make_case(const lanes_case_t *c, fp_params_t *p, fp_fogmap_stage_t *st,
@@ -98,6 +101,7 @@ static void test_lanes_against_reference(void **state)
         make_case(c, &p, &st, &d, &img);
         fp_view_t v;
         assert_int_equal(make_view(&v, w, h, c->cam_y, c->pitch), 0);
+        v.clip = c->clip;
         for (size_t i = 0; i < n; i++) {
             double u = urand();
             depth[i] = u < 0.05 ? INFINITY : (float)pow(10, -1 + 2.5 * urand());
