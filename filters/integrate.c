@@ -223,7 +223,9 @@ int fp_integrate_cl_init(fp_cl_t *cl, fp_integrate_cl_t *s)
         fp_cl_kernel(prog, "integrate_fog", &s->kernel) ||
         fp_cl_kernel(prog, "integrate_height", &s->height) ||
         fp_cl_kernel(prog, "integrate_height_list", &s->height_list) ||
-        fp_cl_kernel(prog, "integrate_height_over", &s->height_over))
+        fp_cl_kernel(prog, "integrate_height_over", &s->height_over) ||
+        fp_cl_kernel(prog, "integrate_fogmap", &s->fogmap) ||
+        fp_cl_kernel(prog, "integrate_fogmap_list", &s->fogmap_list))
         return FP_ERR;
     cl_int err;
     cl_context ctx = fp_cl_context(cl);
@@ -413,9 +415,11 @@ static int upload_pixels(fp_integrate_cl_t *s, const int *pix, size_t npix);
 /* Fog without a fogmap: integrate_height(_list), 16 pixels per work-item
  * (kernels/integrate.cl), with the arguments of integrate_fog: set them
  * (the layer s->fog), *k the kernel (NULL when the list is empty: nothing
- * to run), global its work size. */
+ * to run), global its work size.  lanes_k: a linear fogmap's exact walk
+ * (integrate_fogmap(_list)) on the same arguments, or NULL. */
 static int height_args(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix, size_t npix,
-                       cl_float4 color, int over, cl_mem depth, cl_kernel *k, size_t *global)
+                       cl_float4 color, int over, cl_mem depth, cl_kernel lanes_k,
+                       cl_kernel *k, size_t *global)
 {
     const size_t lanes = 16;   /* FP_SIMD in kernels/fog_core.h */
     cl_int w = v->width, h = v->height;
@@ -424,7 +428,7 @@ static int height_args(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix,
         return fp_error("integrate_height: %zu pixels listed, the frame has %d", npix, w * h);
     if (pix && npix == 0)
         return FP_OK;
-    *k = over ? s->height_over : npix ? s->height_list : s->height;
+    *k = lanes_k ? lanes_k : over ? s->height_over : npix ? s->height_list : s->height;
     cl_int cnpix = (cl_int)npix;
     if (upload_pixels(s, pix, npix) || FP_CL_ARG(*k, 0, depth) || FP_CL_ARG(*k, 1, s->fog) ||
         FP_CL_ARG(*k, 2, s->view) || FP_CL_ARG(*k, 3, w) || FP_CL_ARG(*k, 4, h) ||
@@ -438,17 +442,28 @@ static int height_args(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix,
 }
 
 static int launch_height(fp_integrate_cl_t *s, const fp_view_t *v, const int *pix, size_t npix,
-                         cl_float4 color, float *fog, int over, cl_mem depth)
+                         cl_float4 color, float *fog, int over, cl_mem depth, cl_kernel lanes_k)
 {
     if (!pix)
         npix = 0;
     cl_kernel k;
     size_t global[2];
-    if (height_args(s, v, pix, npix, color, over, depth, &k, global) || !k)
+    if (height_args(s, v, pix, npix, color, over, depth, lanes_k, &k, global) || !k)
         return k ? FP_ERR : FP_OK;
     return run_read_layer(s, k, npix ? 1 : 2, global, NULL,
-                          npix ? npix : (size_t)v->width * v->height, fog,
-                          over ? 2 : 1, over ? "integrate_height_over" : "integrate_height");
+                          npix ? npix : (size_t)v->width * v->height, fog, over ? 2 : 1,
+                          lanes_k ? (npix ? "integrate_fogmap_list" : "integrate_fogmap")
+                                  : over ? "integrate_height_over" : "integrate_height");
+}
+
+int fp_integrate_lanes_ok(const fp_integrate_data_t *d, const fp_view_t *v)
+{
+    const double *f = d->fp;
+    int nl = (int)f[FP_F_NLEVELS];
+    return f[FP_F_HAS_MAP] != 0 && d->tables && d->tables->lvi[FP_LI_APPROX] >= 0 &&
+           (int)f[FP_F_MODE] == 0 && (int)f[FP_F_DEGREE] == 1 && (int)f[FP_F_WRAP] != 1 &&
+           !(f[FP_F_LOD_BOUND] > 0) && !(f[FP_F_FOOTPRINT] > 0) &&
+           (nl < 2 || f[FP_F_LOD_MU] >= 1) && isinf(f[FP_F_OD_MAX]) && !v->ortho;
 }
 
 int fp_integrate_height_layer_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
@@ -462,7 +477,7 @@ int fp_integrate_height_layer_cl(fp_integrate_cl_t *s, const fp_integrate_data_t
     cl_float4 c = { { (float)color[0], (float)color[1], (float)color[2], 0 } };
     cl_kernel k;
     size_t global[2];
-    if (height_args(s, v, pix, npix, c, 0, s->depth, &k, global) || !k)
+    if (height_args(s, v, pix, npix, c, 0, s->depth, NULL, &k, global) || !k)
         return k ? FP_ERR : FP_OK;
     return fp_cl_check(clEnqueueNDRangeKernel(fp_cl_queue(s->cl), k, npix ? 1 : 2, NULL, global,
                                               NULL, 0, NULL, NULL),
@@ -484,7 +499,10 @@ int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
      * plane each at their own point: they go through integrate_fog
      * (fp_view_origin_at). */
     if (d->fp[FP_F_HAS_MAP] == 0 && !v->ortho && !(v->clip > 0))
-        return launch_height(s, v, pix, npix, color, fog, 0, s->depth);
+        return launch_height(s, v, pix, npix, color, fog, 0, s->depth, NULL);
+    if (!s->no_lanes && fp_integrate_lanes_ok(d, v))
+        return launch_height(s, v, pix, npix, color, fog, 0, s->depth,
+                             pix && npix ? s->fogmap_list : s->fogmap);
     return fp_integrate_cl_launch(s, s->kernel, v, pix, npix, fog, "integrate_fog");
 }
 
@@ -516,7 +534,7 @@ int fp_integrate_over_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d, con
     }
     cl_float4 color = { { (float)d->fog_color[0], (float)d->fog_color[1],
                           (float)d->fog_color[2], 0 } };
-    int rc = launch_height(s, v, NULL, 0, color, rgba, 1, dbuf);
+    int rc = launch_height(s, v, NULL, 0, color, rgba, 1, dbuf, NULL);
     if (host_depth)
         clReleaseMemObject(dbuf);
     return rc;
@@ -579,7 +597,8 @@ void fp_integrate_cl_release(fp_integrate_cl_t *s)
 {
     cl_mem *mems[] = { &s->depth, &s->fog, &s->view, &s->params, &s->lvi, &s->lvf, &s->coef,
                        &s->occ, &s->pix };
-    cl_kernel kernels[] = { s->kernel, s->height, s->height_list, s->height_over };
+    cl_kernel kernels[] = { s->kernel,      s->height, s->height_list,
+                            s->height_over, s->fogmap, s->fogmap_list };
     for (size_t i = 0; i < FP_ARRAY_LEN(kernels); i++)
         if (kernels[i])
             clReleaseKernel(kernels[i]);

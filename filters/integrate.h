@@ -81,6 +81,9 @@ typedef struct fp_integrate_cl_t {
     cl_kernel kernel;
     cl_kernel height, height_list;        /* fog without a fogmap: branch-free, SIMD on PoCL */
     cl_kernel height_over;                /* the same, composited over the plate in place */
+    cl_kernel fogmap, fogmap_list;        /* a linear fogmap walked exactly, 16 rays a work-item */
+    int no_lanes;                         /* tests: integrate_fog even where integrate_fogmap
+                                             would do */
     cl_mem depth, fog, view, params, lvi, lvf, coef, occ;
     cl_mem pix;                           /* the pixel list of a list launch */
     size_t capacity;      /* pixels the buffers hold */
@@ -106,6 +109,10 @@ int fp_integrate_cl_launch(fp_integrate_cl_t *s, cl_kernel k, const fp_view_t *v
 int fp_integrate_process_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                             const fp_view_t *v, const float *depth, float *fog);
 /* As fp_integrate_pixels, on the device. */
+/* Whether integrate_fogmap (16 rays a work-item, kernels/fogmap_lanes.h)
+ * computes this look's layer: a linear fogmap walked exactly from a
+ * perspective camera, wrap zero or repeat. */
+int fp_integrate_lanes_ok(const fp_integrate_data_t *d, const fp_view_t *v);
 int fp_integrate_pixels_cl(fp_integrate_cl_t *s, const fp_integrate_data_t *d,
                            const fp_view_t *v, const float *depth, const int *pix, size_t npix,
                            float *fog);

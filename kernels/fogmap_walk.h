@@ -307,9 +307,19 @@ FP_HOT fp_real fp_grid_walk(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         tn = fmax(tn, t);
         fp_real len = tn - t;
         FP_SEG_COUNT();
-        /* The cell's coefficients. */
+        /* The cell's coefficients (the linear basis' four read directly:
+         * the loop below kept them in memory, a quarter of the walk). */
         fp_real c[16];
-        for (int j = 0; j <= d; j++) {
+        if (d == 1) {
+            int kw1 = kw + 1 >= nx ? kw + 1 - nx : kw + 1;
+            int mw1 = mw + 1 >= ny ? mw + 1 - ny : mw + 1;
+            FP_GLOBAL const float *r0 = cf + (size_t)mw * nx, *r1 = cf + (size_t)mw1 * nx;
+            c[0] = r0[kw];
+            c[1] = r0[kw1];
+            c[4] = r1[kw];
+            c[5] = r1[kw1];
+        }
+        for (int j = 0; d != 1 && j <= d; j++) {
             int mj = mw + j;
             mj = mj >= ny ? mj % ny : mj;   /* % only on grids narrower than d + 1 */
             FP_GLOBAL const float *row = cf + (size_t)mj * nx;

@@ -3,6 +3,7 @@
  * integrals themselves are in fog_core.h, shared with the reference. */
 #include "fp_common.h"
 #include "fog_core.h"
+#include "fogmap_lanes.h"
 
 /* Deterministic per-pixel offset in [-0.5, 0.5) for --jitter: the same
  * pattern every frame, so a still camera gives still fog. */
@@ -245,4 +246,61 @@ __kernel void integrate_height_list(__global const float *restrict depth,
     }
     float16 t = height_fog_lanes(view, fp, vload16(0, lx), vload16(0, ly), vload16(0, ld));
     height_fog_store(fog_out + 4 * (size_t)k0, n, t, fog_color);
+}
+
+/* A fogmap of the linear basis walked exactly (the host's
+ * fp_integrate_lanes_ok): integrate_fog's layer, work-item (i, y)
+ * computing pixels 16 i .. 16 i + 15 of row y as float16 lanes (those
+ * past the row's end repeat its last pixel, not stored), each lane
+ * walking its own ray (kernels/fogmap_lanes.h). */
+__kernel void integrate_fogmap(__global const float *restrict depth,
+                               __global float *restrict fog_out,
+                               __constant const float *restrict view, const int width,
+                               const int height, __constant const float *restrict fp,
+                               __constant const int *lvi, __constant const float *lvf,
+                               __global const float *coef, __global const uchar *occ,
+                               __global const int *pix, const int npix, const float4 fog_color)
+{
+    int x0 = (int)get_global_id(0) * FP_SIMD, y = get_global_id(1);
+    if (x0 >= width || y >= height)
+        return;
+    size_t row = (size_t)y * width;
+    int n = min(FP_SIMD, width - x0);
+    float ld[16];
+    for (int k = 0; k < FP_SIMD; k++)
+        ld[k] = depth[row + x0 + min(k, n - 1)];
+    float16 x = min((float)x0 + FP_LANES, (float)(width - 1));
+    float16 od = fp_fog_od_lanes(view, fp, lvi, lvf, coef, x, (float16)((float)y),
+                                 vload16(0, ld));
+    height_fog_store(fog_out + 4 * (row + x0), n, exp(-od), fog_color);
+}
+
+/* integrate_fogmap on the pixels pix[0 .. npix) (indices y * width + x),
+ * results in list order, 16 per work-item: each lane's ray is walked as
+ * in the whole frame's kernel, whatever its neighbours, so a listed pixel
+ * gets the frame's value. */
+__kernel void integrate_fogmap_list(__global const float *restrict depth,
+                                    __global float *restrict fog_out,
+                                    __constant const float *restrict view, const int width,
+                                    const int height, __constant const float *restrict fp,
+                                    __constant const int *lvi, __constant const float *lvf,
+                                    __global const float *coef, __global const uchar *occ,
+                                    __global const int *restrict pix, const int npix,
+                                    const float4 fog_color)
+{
+    int k0 = (int)get_global_id(0) * FP_SIMD;
+    if (k0 >= npix)
+        return;
+    int n = min(FP_SIMD, npix - k0);
+    float lx[16], ly[16], ld[16];
+    for (int k = 0; k < FP_SIMD; k++) {
+        int p = pix[k0 + min(k, n - 1)];
+        int y = p / width;
+        lx[k] = (float)(p - y * width);
+        ly[k] = (float)y;
+        ld[k] = depth[p];
+    }
+    float16 od = fp_fog_od_lanes(view, fp, lvi, lvf, coef, vload16(0, lx), vload16(0, ly),
+                                 vload16(0, ld));
+    height_fog_store(fog_out + 4 * (size_t)k0, n, exp(-od), fog_color);
 }

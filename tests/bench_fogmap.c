@@ -164,6 +164,13 @@ int main(int argc, char **argv)
         double rms, me = ref_error(&hd, &d, 16, &rms);
         printf("| 64x64 linear, 3 levels, exact | 1920x1080 | %.0f | <= 1000 | %.2e | %.2e |\n",
                ns64, me, rms);
+        /* The same on one ray a work-item (integrate_fog), the kernel
+         * integrate_fogmap's lanes replace for this look. */
+        icl.no_lanes = 1;
+        double ns1 = run(&hd, &d, 3), rms1, me1 = ref_error(&hd, &d, 16, &rms1);
+        icl.no_lanes = 0;
+        printf("| the same, one ray a work-item (integrate_fog; above: 16, integrate_fogmap) | "
+               "1920x1080 | %.0f (%.1fx) | - | %.2e | %.2e |\n", ns1, ns1 / ns64, me1, rms1);
         fp_fogmap_release(&st);
     }
 #ifdef FP_F_LOD_BOUND   /* (the bench also builds on the tree before --lod-bound) */
