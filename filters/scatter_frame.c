@@ -31,6 +31,19 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     size_t size = 0;
     if ((rc = fp_exr_load_file(path, frame, &buf, &size)))
         return rc;
+    /* The same bytes as the map packed last (a still sun over a still
+     * scene: every frame's map alike), under the same sun, bias and up
+     * axis: kept as it is, with its projection in lt; not under -v, where
+     * every frame's map is checked and reported. */
+    double key[5] = { d->lt[FP_LT_SUN_DIR], d->lt[FP_LT_SUN_DIR + 1], d->lt[FP_LT_SUN_DIR + 2],
+                      p->light.shadow_bias, (double)p->camera.up };
+    if (d->smap && d->smap_file && fp_verbose <= 0 && size == d->smap_file_n &&
+        !memcmp(key, d->smap_key, sizeof key) && !memcmp(buf, d->smap_file, size)) {
+        free(buf);
+        return FP_OK;
+    }
+    free(d->smap_file);
+    d->smap_file = NULL;
     fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
     sel.need_color = 0;
     sel.need_depth = 1;
@@ -118,8 +131,11 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     float *packed = NULL;
     size_t np = 0;
     int levels = 0;
+    fp_shafts_plane(d->lt + FP_LT_SM_NDC, d->lt + FP_LT_SM_Z, info->width, info->height,
+                    d->lt + FP_LT_SM_GA, d->lt + FP_LT_SM_GB);
     if (fp_shafts_build(z, info->width, info->height, texel * fmax(1, slope),
-                        p->light.shadow_bias, &packed, &np, &levels)) {
+                        p->light.shadow_bias, d->lt[FP_LT_SM_GA], d->lt[FP_LT_SM_GB], &packed,
+                        &np, &levels)) {
         fp_frame_free(f);
         free(z);
         return fp_error("%s: frame %ld: out of memory", path, frame);
@@ -131,6 +147,13 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     d->smap_w = info->width;
     d->smap_h = info->height;
     d->lt[FP_LT_SM_LEVELS] = levels;
+    d->smap_serial = 0;
+    /* The file's bytes (the frame holds them until freed). */
+    d->smap_file = malloc(size);
+    if (d->smap_file)
+        memcpy(d->smap_file, buf, size);
+    d->smap_file_n = d->smap_file ? size : 0;
+    memcpy(d->smap_key, key, sizeof key);
     fp_frame_free(f);
     return FP_OK;
 }
@@ -325,6 +348,7 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
     }
     free(d->smap);
     d->smap = packed;
+    d->smap_serial = 0;
     d->smap_n = np;
     lt[FP_LT_SS_PW] = v->width;
     lt[FP_LT_SS_PH] = v->height;
@@ -353,6 +377,8 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
         int rc = load_shadow_map(p, d, frame);
         if (rc)
             return rc;
+        if (!d->smap_serial)
+            d->smap_serial = ++serial;
     }
     fp_shadowcheck_wants(p, (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
                                 (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN);
