@@ -371,7 +371,10 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
                          : dU < 0 ? ((fp_real)(bi * s) - U0) / dU : (fp_real)FP_INF;
             fp_real tY = dV > 0 ? ((fp_real)((bj + 1) * s) - V0) / dV
                          : dV < 0 ? ((fp_real)(bj * s) - V0) / dV : (fp_real)FP_INF;
-            fp_real t1 = fmax(fmin(fmin(tX, tY), mb), t);
+            /* Comparisons, not fmin/fmax: nothing here is NaN. */
+            fp_real t1 = tX < tY ? tX : tY;
+            t1 = t1 < mb ? t1 : mb;
+            t1 = t1 > t ? t1 : t;
             if (L == 0) {
                 fp_real za = Z0 + t * dZ;
                 fp_real zb1 = dZ == 0 ? Z0 : Z0 + t1 * dZ;
@@ -392,9 +395,9 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
                 int o = offs[L] + 2 * (bj * wl + bi);
                 fp_real mn = smap[o], mx = smap[o + 1];
                 fp_real ra = R0 + t * dR, rb = dR == 0 ? R0 : R0 + t1 * dR;
-                if (fmax(ra, rb) + rm <= mn) {
+                if ((ra > rb ? ra : rb) + rm <= mn) {
                     FP_EMIT(t, t1, 1);
-                } else if (fmin(ra, rb) - rm > mx) {
+                } else if ((ra < rb ? ra : rb) - rm > mx) {
                     FP_EMIT(t, t1, 0);
                 } else {
                     L--;
