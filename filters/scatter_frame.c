@@ -17,33 +17,11 @@
 #include "../kernels/light_core.h"
 #include "../kernels/scatter_core.h"
 
-/* Load this frame's shadow map and pack its projection (fog space). */
-static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long frame)
+/* Decode the shadow map file read into buf (taken) and pack it into d. */
+static int pack_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long frame,
+                           const char *path, void *buf, size_t size)
 {
-    char path[4096];
-    int rc = FP_OK;
-    /* A frame's rig names its own map: no frame number in it. */
-    if (p->light.shadow_map_literal)
-        snprintf(path, sizeof path, "%s", p->light.shadow_map);
-    else if ((rc = fp_seq_format(p->light.shadow_map, frame, path, sizeof path)))
-        return rc;
-    void *buf = NULL;
-    size_t size = 0;
-    if ((rc = fp_exr_load_file(path, frame, &buf, &size)))
-        return rc;
-    /* The same bytes as the map packed last (a still sun over a still
-     * scene: every frame's map alike), under the same sun, bias and up
-     * axis: kept as it is, with its projection in lt; not under -v, where
-     * every frame's map is checked and reported. */
-    double key[5] = { d->lt[FP_LT_SUN_DIR], d->lt[FP_LT_SUN_DIR + 1], d->lt[FP_LT_SUN_DIR + 2],
-                      p->light.shadow_bias, (double)p->camera.up };
-    if (d->smap && d->smap_file && fp_verbose <= 0 && size == d->smap_file_n &&
-        !memcmp(key, d->smap_key, sizeof key) && !memcmp(buf, d->smap_file, size)) {
-        free(buf);
-        return FP_OK;
-    }
-    free(d->smap_file);
-    d->smap_file = NULL;
+    int rc;
     fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
     sel.need_color = 0;
     sel.need_depth = 1;
@@ -148,13 +126,50 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     d->smap_h = info->height;
     d->lt[FP_LT_SM_LEVELS] = levels;
     d->smap_serial = 0;
-    /* The file's bytes (the frame holds them until freed). */
-    d->smap_file = malloc(size);
-    if (d->smap_file)
-        memcpy(d->smap_file, buf, size);
-    d->smap_file_n = d->smap_file ? size : 0;
-    memcpy(d->smap_key, key, sizeof key);
     fp_frame_free(f);
+    return FP_OK;
+}
+
+/* Load this frame's shadow map and pack its projection (fog space). */
+static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long frame)
+{
+    char path[4096];
+    int rc = FP_OK;
+    /* A frame's rig names its own map: no frame number in it. */
+    if (p->light.shadow_map_literal)
+        snprintf(path, sizeof path, "%s", p->light.shadow_map);
+    else if ((rc = fp_seq_format(p->light.shadow_map, frame, path, sizeof path)))
+        return rc;
+    void *buf = NULL;
+    size_t size = 0;
+    if ((rc = fp_exr_load_file(path, frame, &buf, &size)))
+        return rc;
+    /* The same bytes as the map packed last (a still sun over a still
+     * scene: every frame's map alike), under the same sun, bias and up
+     * axis: kept as it is, with its projection in lt; not under -v, where
+     * every frame's map is checked and reported. */
+    double key[5] = { d->lt[FP_LT_SUN_DIR], d->lt[FP_LT_SUN_DIR + 1], d->lt[FP_LT_SUN_DIR + 2],
+                      p->light.shadow_bias, (double)p->camera.up };
+    if (d->smap && d->smap_file && fp_verbose <= 0 && size == d->smap_file_n &&
+        !memcmp(key, d->smap_key, sizeof key) && !memcmp(buf, d->smap_file, size)) {
+        free(buf);
+        return FP_OK;
+    }
+    /* Its bytes, kept for the next frame's comparison once packed (the
+     * decoder takes buf). */
+    free(d->smap_file);
+    d->smap_file = NULL;
+    d->smap_file_n = 0;
+    void *kept = malloc(size);
+    if (kept)
+        memcpy(kept, buf, size);
+    if ((rc = pack_shadow_map(p, d, frame, path, buf, size))) {
+        free(kept);
+        return rc;
+    }
+    d->smap_file = kept;
+    d->smap_file_n = kept ? size : 0;
+    memcpy(d->smap_key, key, sizeof key);
     return FP_OK;
 }
 
