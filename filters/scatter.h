@@ -61,12 +61,12 @@ typedef struct fp_scatter_data_t {
     fp_grid_key_t grid_key;   /* what grid holds */
     unsigned long serial;     /* changes when smap or grid change (device copies) */
     int lamp_shadows;         /* --lamp-shadows screen with local lights: FP_LT_LS_ON per frame */
-    /* The shadow map's file as read and what its packing depended on
-     * besides (the sun, the bias, the up axis): a frame whose file holds
-     * the same bytes keeps smap as it is (filters/scatter_frame.c). */
-    void *smap_file;
-    size_t smap_file_n;
-    double smap_key[5];
+    /* The shadow map's depths as read (W x H) and what its packing
+     * depended on besides (its projection, the sun, the bias, the up axis,
+     * its size): a frame whose map holds the same keeps smap as it is
+     * (filters/scatter_frame.c). */
+    float *smap_z;
+    double smap_key[25];
     unsigned long smap_serial; /* changes when smap changes (0: unknown) */
 } fp_scatter_data_t;
 

@@ -101,6 +101,24 @@ static int pack_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     const double *l = d->lt + FP_LT_SUN_DIR;
     double slope = sqrt(l[0] * l[0] + l[2] * l[2]) / fmax(l[1], 0.05);
     d->lt[FP_LT_SM_BIAS] = p->light.shadow_bias;
+    /* The same depths as the map packed last, seen by the same sun camera,
+     * under the same sun, bias and up axis (a still sun over a still
+     * scene: every frame's map alike, whatever else its header says): the
+     * packed map kept as it is, checked and uploaded once; not under -v,
+     * where every frame's map is checked and reported. */
+    double key[25];
+    memcpy(key, d->lt + FP_LT_SM_NDC, 20 * sizeof *key);
+    key[20] = l[0];
+    key[21] = l[1];
+    key[22] = l[2];
+    key[23] = p->light.shadow_bias;
+    key[24] = info->width + 65536.0 * info->height + 4294967296.0 * p->camera.up;
+    if (d->smap && d->smap_z && fp_verbose <= 0 && !memcmp(key, d->smap_key, sizeof key) &&
+        !memcmp(z, d->smap_z, n * sizeof *z)) {
+        fp_frame_free(f);
+        free(z);
+        return FP_OK;
+    }
     /* Casters and gaps too thin for the map (filters/shadowcheck.h): a
      * depth step of two texels of level ground under this sun. */
     fp_shadowcheck_frame(path, frame, z, info->width, info->height, gx > 0 ? 1 / gx : 0,
@@ -119,7 +137,9 @@ static int pack_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
         return fp_error("%s: frame %ld: out of memory", path, frame);
     }
     free(d->smap);
-    free(z);
+    free(d->smap_z);
+    d->smap_z = z;
+    memcpy(d->smap_key, key, sizeof key);
     d->smap = packed;
     d->smap_n = np;
     d->smap_w = info->width;
@@ -144,33 +164,7 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     size_t size = 0;
     if ((rc = fp_exr_load_file(path, frame, &buf, &size)))
         return rc;
-    /* The same bytes as the map packed last (a still sun over a still
-     * scene: every frame's map alike), under the same sun, bias and up
-     * axis: kept as it is, with its projection in lt; not under -v, where
-     * every frame's map is checked and reported. */
-    double key[5] = { d->lt[FP_LT_SUN_DIR], d->lt[FP_LT_SUN_DIR + 1], d->lt[FP_LT_SUN_DIR + 2],
-                      p->light.shadow_bias, (double)p->camera.up };
-    if (d->smap && d->smap_file && fp_verbose <= 0 && size == d->smap_file_n &&
-        !memcmp(key, d->smap_key, sizeof key) && !memcmp(buf, d->smap_file, size)) {
-        free(buf);
-        return FP_OK;
-    }
-    /* Its bytes, kept for the next frame's comparison once packed (the
-     * decoder takes buf). */
-    free(d->smap_file);
-    d->smap_file = NULL;
-    d->smap_file_n = 0;
-    void *kept = malloc(size);
-    if (kept)
-        memcpy(kept, buf, size);
-    if ((rc = pack_shadow_map(p, d, frame, path, buf, size))) {
-        free(kept);
-        return rc;
-    }
-    d->smap_file = kept;
-    d->smap_file_n = kept ? size : 0;
-    memcpy(d->smap_key, key, sizeof key);
-    return FP_OK;
+    return pack_shadow_map(p, d, frame, path, buf, size);
 }
 
 #define FP_GRID_MIN_SUN_Y 0.05
