@@ -360,11 +360,11 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
         rm = rm < FP_INF ? rm : (fp_real)FP_INF;
         int ix = (int)fmin(fmax(floor(U0 + t * dU), (fp_real)0), (fp_real)(W - 1));
         int iy = (int)fmin(fmax(floor(V0 + t * dV), (fp_real)0), (fp_real)(H - 1));
-        /* From 16 texels' blocks below the top: the blocks about the
-         * ray's start hold what stands near it (the camera's own
-         * surroundings), and a start at the top fails down to there on
-         * most rays (the walk climbs back where it may: 17 steps a ray
-         * instead of 20 on the sample scene). */
+        /* Four levels below the top (blocks a sixteenth of the map's
+         * side): the blocks about the ray's start hold what stands near
+         * it (the camera's own surroundings), and a start at the top
+         * fails down to there on most rays (the walk climbs back where it
+         * may: 17 steps a ray instead of 20 on the sample scene). */
         int L = NL > 4 ? NL - 4 : 0;
         int offs[FP_SM_MAX_LEVELS + 1];
         fp_pyr_offsets(W, H, NL, offs);
