@@ -332,6 +332,9 @@ static const double no_lights[FP_LL_STRIDE];
 void fp_scatter_release(fp_scatter_data_t *d)
 {
     free(d->smap);
+    free(d->smap_z);
+    d->smap_z = NULL;
+    d->smap_serial = 0;
     free(d->grid);
     free(d->lights);
     d->lights = NULL;

@@ -61,6 +61,13 @@ typedef struct fp_scatter_data_t {
     fp_grid_key_t grid_key;   /* what grid holds */
     unsigned long serial;     /* changes when smap or grid change (device copies) */
     int lamp_shadows;         /* --lamp-shadows screen with local lights: FP_LT_LS_ON per frame */
+    /* The shadow map's depths as read (W x H) and what its packing
+     * depended on besides (its projection, the sun, the bias, the up axis,
+     * its size): a frame whose map holds the same keeps smap as it is
+     * (filters/scatter_frame.c). */
+    float *smap_z;
+    double smap_key[25];
+    unsigned long smap_serial; /* changes when smap changes (0: unknown) */
 } fp_scatter_data_t;
 
 /* Check and pack the light options (fog space).  d->active = 0 when the
@@ -125,6 +132,7 @@ typedef struct fp_scatter_cl_t {
     fp_grid_key_t grid_key;   /* what grid holds */
     size_t grid_n;
     unsigned long uploaded;   /* serial of smap/grid on the device */
+    unsigned long smap_uploaded; /* smap_serial of smap on the device (0: none) */
 } fp_scatter_cl_t;
 
 /* The OpenCL version shares the integrate stage's buffers (depth, fog

@@ -66,13 +66,19 @@ static int upload(fp_scatter_cl_t *s, const fp_scatter_data_t *d)
         return FP_ERR;
     if (s->smap && s->uploaded == d->serial)
         return FP_OK;
-    if (s->smap)
-        clReleaseMemObject(s->smap);
-    size_t ns = d->smap ? d->smap_n : 1;
-    s->smap = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ns * sizeof(float),
-                             (void *)(d->smap ? d->smap : no_map), &err);
-    if (fp_cl_check(err, "scatter: shadow map"))
-        return FP_ERR;
+    /* The map again only when it changed (a sequence's unchanged map is
+     * uploaded once). */
+    if (!s->smap || !d->smap_serial || s->smap_uploaded != d->smap_serial) {
+        if (s->smap)
+            clReleaseMemObject(s->smap);
+        s->smap_uploaded = 0;
+        size_t ns = d->smap ? d->smap_n : 1;
+        s->smap = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, ns * sizeof(float),
+                                 (void *)(d->smap ? d->smap : no_map), &err);
+        if (fp_cl_check(err, "scatter: shadow map"))
+            return FP_ERR;
+        s->smap_uploaded = d->smap_serial;
+    }
     size_t ng = fp_scatter_uses_grid(d) ? fp_scatter_grid_nodes(d->lt) : 1;
     if (!s->grid || s->grid_n != ng) {
         if (s->grid)

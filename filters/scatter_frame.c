@@ -17,20 +17,11 @@
 #include "../kernels/light_core.h"
 #include "../kernels/scatter_core.h"
 
-/* Load this frame's shadow map and pack its projection (fog space). */
-static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long frame)
+/* Decode the shadow map file read into buf (taken) and pack it into d. */
+static int pack_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long frame,
+                           const char *path, void *buf, size_t size)
 {
-    char path[4096];
-    int rc = FP_OK;
-    /* A frame's rig names its own map: no frame number in it. */
-    if (p->light.shadow_map_literal)
-        snprintf(path, sizeof path, "%s", p->light.shadow_map);
-    else if ((rc = fp_seq_format(p->light.shadow_map, frame, path, sizeof path)))
-        return rc;
-    void *buf = NULL;
-    size_t size = 0;
-    if ((rc = fp_exr_load_file(path, frame, &buf, &size)))
-        return rc;
+    int rc;
     fp_exr_select_t sel = FP_EXR_SELECT_INITIALIZER;
     sel.need_color = 0;
     sel.need_depth = 1;
@@ -110,6 +101,24 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     const double *l = d->lt + FP_LT_SUN_DIR;
     double slope = sqrt(l[0] * l[0] + l[2] * l[2]) / fmax(l[1], 0.05);
     d->lt[FP_LT_SM_BIAS] = p->light.shadow_bias;
+    /* The same depths as the map packed last, seen by the same sun camera,
+     * under the same sun, bias and up axis (a still sun over a still
+     * scene: every frame's map alike, whatever else its header says): the
+     * packed map kept as it is, checked and uploaded once; not under -v,
+     * where every frame's map is checked and reported. */
+    double key[25];
+    memcpy(key, d->lt + FP_LT_SM_NDC, 20 * sizeof *key);
+    key[20] = l[0];
+    key[21] = l[1];
+    key[22] = l[2];
+    key[23] = p->light.shadow_bias;
+    key[24] = info->width + 65536.0 * info->height + 4294967296.0 * p->camera.up;
+    if (d->smap && d->smap_z && fp_verbose <= 0 && !memcmp(key, d->smap_key, sizeof key) &&
+        !memcmp(z, d->smap_z, n * sizeof *z)) {
+        fp_frame_free(f);
+        free(z);
+        return FP_OK;
+    }
     /* Casters and gaps too thin for the map (filters/shadowcheck.h): a
      * depth step of two texels of level ground under this sun. */
     fp_shadowcheck_frame(path, frame, z, info->width, info->height, gx > 0 ? 1 / gx : 0,
@@ -118,21 +127,44 @@ static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long fram
     float *packed = NULL;
     size_t np = 0;
     int levels = 0;
+    fp_shafts_plane(d->lt + FP_LT_SM_NDC, d->lt + FP_LT_SM_Z, info->width, info->height,
+                    d->lt + FP_LT_SM_GA, d->lt + FP_LT_SM_GB);
     if (fp_shafts_build(z, info->width, info->height, texel * fmax(1, slope),
-                        p->light.shadow_bias, &packed, &np, &levels)) {
+                        p->light.shadow_bias, d->lt[FP_LT_SM_GA], d->lt[FP_LT_SM_GB], &packed,
+                        &np, &levels)) {
         fp_frame_free(f);
         free(z);
         return fp_error("%s: frame %ld: out of memory", path, frame);
     }
     free(d->smap);
-    free(z);
+    free(d->smap_z);
+    d->smap_z = z;
+    memcpy(d->smap_key, key, sizeof key);
     d->smap = packed;
     d->smap_n = np;
     d->smap_w = info->width;
     d->smap_h = info->height;
     d->lt[FP_LT_SM_LEVELS] = levels;
+    d->smap_serial = 0;
     fp_frame_free(f);
     return FP_OK;
+}
+
+/* Load this frame's shadow map and pack its projection (fog space). */
+static int load_shadow_map(const fp_params_t *p, fp_scatter_data_t *d, long frame)
+{
+    char path[4096];
+    int rc = FP_OK;
+    /* A frame's rig names its own map: no frame number in it. */
+    if (p->light.shadow_map_literal)
+        snprintf(path, sizeof path, "%s", p->light.shadow_map);
+    else if ((rc = fp_seq_format(p->light.shadow_map, frame, path, sizeof path)))
+        return rc;
+    void *buf = NULL;
+    size_t size = 0;
+    if ((rc = fp_exr_load_file(path, frame, &buf, &size)))
+        return rc;
+    return pack_shadow_map(p, d, frame, path, buf, size);
 }
 
 #define FP_GRID_MIN_SUN_Y 0.05
@@ -325,6 +357,7 @@ int fp_scatter_screen(fp_scatter_data_t *d, const fp_view_t *v, const float *dep
     }
     free(d->smap);
     d->smap = packed;
+    d->smap_serial = 0;
     d->smap_n = np;
     lt[FP_LT_SS_PW] = v->width;
     lt[FP_LT_SS_PH] = v->height;
@@ -353,6 +386,8 @@ int fp_scatter_frame(const fp_params_t *p, fp_scatter_data_t *d, const fp_integr
         int rc = load_shadow_map(p, d, frame);
         if (rc)
             return rc;
+        if (!d->smap_serial)
+            d->smap_serial = ++serial;
     }
     fp_shadowcheck_wants(p, (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP ||
                                 (int)lt[FP_LT_SHADOWS] == FP_SHADOWS_MAP_SCREEN);

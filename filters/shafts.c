@@ -51,12 +51,31 @@ static inline float next_up(float x)
     return v.f;
 }
 
+/* The largest float <= x and the least float >= x (x a double). */
+static inline float float_down(double x)
+{
+    float f = (float)x;
+    return (double)f > x ? -next_up(-f) : f;
+}
+
+static inline float float_up(double x)
+{
+    float f = (float)x;
+    return (double)f < x ? next_up(f) : f;
+}
+
 /* Levels 1..nl of p (after its w x h level 0): min and max per block. */
 /* finite_max: a block's largest finite value (+inf: none in it), for
  * the depth buffer's walk, where +inf (sky) is no cell at all: a block of
- * sky and geometry then bounds its cells' z, not [zmin, inf). */
-static void build_levels(float *p, int w, int h, int nl, int finite_max)
+ * sky and geometry then bounds its cells' z, not [zmin, inf).  plane: the
+ * bounds are of the residual zb - ga U - gb V over every point (U, V) of
+ * the block's texels (texel (i, j) spans [i, i + 1) x [j, j + 1): its
+ * center's residual less and plus half the plane's fall across it),
+ * rounded outward to float. */
+static void build_levels(float *p, int w, int h, int nl, int finite_max, int plane, double ga,
+                         double gb)
 {
+    double half = 0.5 * (fabs(ga) + fabs(gb));
     size_t off = (size_t)w * h, prev = 0;
     int pw = w, ph = h;
     for (int l = 1; l <= nl; l++) {
@@ -69,7 +88,11 @@ static void build_levels(float *p, int w, int h, int nl, int finite_max)
                     if (a >= pw || b >= ph)
                         continue;
                     float lo, hi;
-                    if (l == 1)
+                    if (l == 1 && plane) {
+                        double r = p[(size_t)b * w + a] - ga * (a + 0.5) - gb * (b + 0.5);
+                        lo = float_down(r - half);
+                        hi = float_up(r + half);
+                    } else if (l == 1)
                         lo = hi = p[(size_t)b * w + a];
                     else {
                         lo = p[prev + 2 * ((size_t)b * pw + a)];
@@ -111,15 +134,29 @@ int fp_shafts_pyramid(const float *z, int w, int h, float **out, size_t *n, int 
         return -1;
     for (size_t i = 0; i < (size_t)w * h; i++)
         p[i] = isnan(z[i]) ? INFINITY : z[i];
-    build_levels(p, w, h, nl, 1);
+    build_levels(p, w, h, nl, 1, 0, 0, 0);
     *out = p;
     *n = total;
     *levels = nl;
     return 0;
 }
 
+void fp_shafts_plane(const double *ndc, const double *cz, int w, int h, double *ga, double *gb)
+{
+    /* On y = c: (U, V) = A (x, z) + const, z_map = (cz0, cz2) (x, z) +
+     * const, so z_map = (cz0, cz2) A^-1 (U, V) + const. */
+    double a00 = ndc[0] * w, a01 = ndc[8] * w, a10 = ndc[1] * h, a11 = ndc[9] * h;
+    double det = a00 * a11 - a01 * a10;
+    double x = (cz[0] * a11 - cz[2] * a10) / det, y = (cz[2] * a00 - cz[0] * a01) / det;
+    /* A sun at the horizon sees no ground: the plain min-max. */
+    if (!(isfinite(x) && isfinite(y) && fabs(x) + fabs(y) < 1e6))
+        x = y = 0;
+    *ga = (float)x;
+    *gb = (float)y;
+}
+
 int fp_shafts_build(const float *z, int w, int h, double max_slope_bias, double user_bias,
-                    float **out, size_t *n, int *levels)
+                    double ga, double gb, float **out, size_t *n, int *levels)
 {
     int nl = fp_shafts_levels(w, h);
     size_t total = packed_size(w, h, nl);
@@ -145,7 +182,7 @@ int fp_shafts_build(const float *z, int w, int h, double max_slope_bias, double 
             p[(size_t)j * w + i] = next_up((float)(c + b));
         }
     }
-    build_levels(p, w, h, nl, 0);
+    build_levels(p, w, h, nl, 0, 1, ga, gb);
     *out = p;
     *n = total;
     *levels = nl;

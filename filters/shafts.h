@@ -10,11 +10,20 @@
  * differences per axis, so a caster's edge does not take the depth jump
  * behind it for a slope), at most `max_slope_bias`, plus `user_bias`, plus
  * float rounding's share of the depth.  +inf and NaN texels see nothing
- * (+inf).  Then levels 1..L of 2^l x 2^l blocks' min and max, up to one
- * block.  *out (malloc'd) holds W H + 2 sum(blocks) floats; *levels = L.
- * Returns 0, or -1 when out of memory. */
+ * (+inf).  Then levels 1..L of 2^l x 2^l blocks, up to one block: bounds
+ * of the residual zb - ga U - gb V (the ground plane, fp_shafts_plane)
+ * over every point of the block's texels, the least rounded down and the
+ * largest up.  *out (malloc'd) holds W H + 2 sum(blocks) floats;
+ * *levels = L.  Returns 0, or -1 when out of memory. */
 int fp_shafts_build(const float *z, int w, int h, double max_slope_bias, double user_bias,
-                    float **out, size_t *n, int *levels);
+                    double ga, double gb, float **out, size_t *n, int *levels);
+
+/* The ground plane of a w x h map whose fog point -> NDC matrix is ndc
+ * (16, row vector, w = 1) and z row cz (4): the map's z of a level
+ * surface (y = const) is ga U + gb V + const over texel coordinates;
+ * ga, gb are float values (the kernel's), 0 where the sun is at the
+ * horizon. */
+void fp_shafts_plane(const double *ndc, const double *cz, int w, int h, double *ga, double *gb);
 
 /* The same pyramid over z as it is (NaN: +inf), no bias: the depth
  * buffer's scene z for --shadows screen. */

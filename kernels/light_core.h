@@ -35,7 +35,10 @@
 #define FP_LT_SM_Z 37        /* 4: fog point -> the map camera's z: dot(p, c) + c[3] */
 #define FP_LT_SM_BIAS 41     /* the user's depth bias, scene units (in the map's zb already) */
 #define FP_LT_SM_RADIUS 42   /* --shadow-filter: ramps R texels each side of a shadow's edge */
-#define FP_LT_SS_STEPS 43    /* unused (was --screen-shadow STEPS; the walk is exact) */
+/* The shadow map's ground plane (filters/shafts.c fp_shafts_plane): the
+ * sun camera's z of a level (y = const) surface is ga U + gb V + c over the
+ * map's texel coordinates; the pyramid's levels bound zb minus that. */
+#define FP_LT_SM_GA 43
 #define FP_LT_SS_DIST 44     /* how far toward the sun, scene units */
 #define FP_LT_SS_THICK 45    /* assumed thickness of what the depth buffer shows */
 #define FP_LT_SS_M 46        /* 9: fog vector -> camera vector (inverse of view m) */
@@ -52,6 +55,7 @@
 #define FP_LT_NDIR 80        /* directional lights (extra suns), after the local ones */
 #define FP_LT_CULL 81        /* per pixel, the most the local lights left out may add */
 #define FP_LT_PMAX 82        /* the phase function's largest value (culling's bound) */
+#define FP_LT_SM_GB 83       /* the ground plane's gb (FP_LT_SM_GA) */
 /* The self-shadow grid's cascades, finest first: per cascade its first
  * node (a, b, s in the sun's frame) and its cell (3 + 3). */
 #define FP_LT_CASCADE 84

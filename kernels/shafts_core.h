@@ -39,12 +39,25 @@
 #define FP_SHAFTS_CORE_H
 
 /* Pyramid level L (1..levels) of the packed map (fp_shafts_build in
- * filters/shafts.c): after the W x H biased depths, per level the min and
- * max of zb over 2^L x 2^L blocks, (W + 2^L - 1) >> L blocks a row, up to
- * the level of one block. */
+ * filters/shafts.c): after the W x H biased depths, per level bounds of
+ * the residual r = zb - (ga U + gb V) over 2^L x 2^L blocks (ga, gb: the
+ * ground plane, FP_LT_SM_GA/GB; below the least and above the largest
+ * over every point of the block's texels), (W + 2^L - 1) >> L blocks a
+ * row, up to the level of one block.  Level ground is a constant residual
+ * however the low sun tilts it in the map, so a ray above it crosses
+ * large blocks where the plain min-max of zb would have the ramp's whole
+ * fall across the block to clear. */
 /* Where C is carried: the longest step, a share of the ray (steps are
  * halved where the sun's transmittance or the fog changes). */
 #define FP_SHAFT_STEPS 8
+
+/* The precision's unit roundoff (the residual test's margin). */
+#ifdef __OPENCL_VERSION__
+#define FP_SHAFT_EPS FLT_EPSILON
+#else
+#include <float.h>
+#define FP_SHAFT_EPS DBL_EPSILON
+#endif
 
 /* C(t) along one ray: the closed form, or carried along the ray. */
 typedef struct {
@@ -77,9 +90,11 @@ FP_FN fp_real fp_sun_C(fp_sun_acc_t *a, FP_CONSTANT const fp_real *fp,
                        FP_CONSTANT const fp_real *lt, FP_GLOBAL const float *grid, fp_real ox,
                        fp_real oy, fp_real oz, fp_real dx, fp_real dy, fp_real dz, fp_real t)
 {
+    /* Closed form of u(t); u(0) = 0 without a call. */
     if (a->layered)
-        return fp_sun_layered_C(a->e0, a->k,
-                                fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy, oz, dx, dy, dz, t, 0));
+        return t > 0 ? fp_sun_layered_C(a->e0, a->k, fp_fog_od(fp, lvi, lvf, coef, occ, ox, oy,
+                                                               oz, dx, dy, dz, t, 0))
+                     : (fp_real)0;
     int self = (int)lt[FP_LT_SELF] != FP_SELF_OFF;
     /* Exact self-shadowing is followed to 1/50 of the segments' light
      * jump (1e-5 of S in the tests); the grid's own error is larger than
@@ -278,7 +293,9 @@ FP_FN fp_real fp_runs_finish(fp_runs_t *r, fp_sun_acc_t *a, FP_CONSTANT const fp
     if (r->pending)
         fp_runs_settle(r, a, fp, lvi, lvf, coef, occ, lt, grid, ox, oy, oz, dx, dy, dz, tb);
     if (r->lit) {
-        r->S += fp_sun_C(FP_SUN_ARGS, tb);
+        /* Closed form: u(tb) is the ray's whole optical depth (no fog
+         * beyond the span's end), known already. */
+        r->S += a->layered ? fp_sun_layered_C(a->e0, a->k, od_total) : fp_sun_C(FP_SUN_ARGS, tb);
         /* Carried to where the fog stopped mattering (an unbounded ray):
          * the rest of the fog with the light of the last point. */
         if (!a->layered)
@@ -315,6 +332,13 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_real dV = (dx * m[1] + dy * m[5] + dz * m[9]) * H;
     fp_real Z0 = ox * cz[0] + oy * cz[1] + oz * cz[2] + cz[3];
     fp_real dZ = dx * cz[0] + dy * cz[1] + dz * cz[2];
+    /* The ray's residual R(t) = z(t) - ga U(t) - gb V(t), affine too,
+     * tested against the pyramid's bounds with a margin for its rounding
+     * (rm: a few units in the last place of the terms' sizes over the
+     * map's stretch), so that a block taken as lit or shadowed is so for
+     * every texel of it by the level-0 test itself. */
+    fp_real ga = lt[FP_LT_SM_GA], gb = lt[FP_LT_SM_GB];
+    fp_real R0 = Z0 - ga * U0 - gb * V0, dR = dZ - ga * dU - gb * dV;
 
     fp_runs_t runs, *r = &runs;
     fp_real tex = fmax(fabs(dU), fabs(dV));
@@ -330,9 +354,18 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
     fp_clip(V0, dV, 0, (fp_real)H, &ma, &mb);
     if (mb > ma) {
         fp_real t = ma;
+        fp_real rm = (fp_real)(16 * FP_SHAFT_EPS) *
+                     (fabs(Z0) + fabs(ga * U0) + fabs(gb * V0) +
+                      fmax(fabs(ma), fabs(mb)) * (fabs(dZ) + fabs(ga * dU) + fabs(gb * dV)));
+        rm = rm < FP_INF ? rm : (fp_real)FP_INF;
         int ix = (int)fmin(fmax(floor(U0 + t * dU), (fp_real)0), (fp_real)(W - 1));
         int iy = (int)fmin(fmax(floor(V0 + t * dV), (fp_real)0), (fp_real)(H - 1));
-        int L = NL;
+        /* Four levels below the top (blocks a sixteenth of the map's
+         * side): the blocks about the ray's start hold what stands near
+         * it (the camera's own surroundings), and a start at the top
+         * fails down to there on most rays (the walk climbs back where it
+         * may: 17 steps a ray instead of 20 on the sample scene). */
+        int L = NL > 4 ? NL - 4 : 0;
         int offs[FP_SM_MAX_LEVELS + 1];
         fp_pyr_offsets(W, H, NL, offs);
         int guard = 16 * (W + H) + 64;
@@ -343,11 +376,14 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
                          : dU < 0 ? ((fp_real)(bi * s) - U0) / dU : (fp_real)FP_INF;
             fp_real tY = dV > 0 ? ((fp_real)((bj + 1) * s) - V0) / dV
                          : dV < 0 ? ((fp_real)(bj * s) - V0) / dV : (fp_real)FP_INF;
-            fp_real t1 = fmax(fmin(fmin(tX, tY), mb), t);
-            fp_real za = Z0 + t * dZ;
-            fp_real zb1 = dZ == 0 ? Z0 : Z0 + t1 * dZ;
-            fp_real zlo = fmin(za, zb1), zhi = fmax(za, zb1);
+            /* Comparisons, not fmin/fmax: nothing here is NaN. */
+            fp_real t1 = tX < tY ? tX : tY;
+            t1 = t1 < mb ? t1 : mb;
+            t1 = t1 > t ? t1 : t;
             if (L == 0) {
+                fp_real za = Z0 + t * dZ;
+                fp_real zb1 = dZ == 0 ? Z0 : Z0 + t1 * dZ;
+                fp_real zlo = fmin(za, zb1), zhi = fmax(za, zb1);
                 fp_real zm = smap[iy * W + ix];
                 if (zhi <= zm) {
                     FP_EMIT(t, t1, 1);
@@ -363,9 +399,10 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
                 int wl = (W + s - 1) >> L;
                 int o = offs[L] + 2 * (bj * wl + bi);
                 fp_real mn = smap[o], mx = smap[o + 1];
-                if (zhi <= mn) {
+                fp_real ra = R0 + t * dR, rb = dR == 0 ? R0 : R0 + t1 * dR;
+                if ((ra > rb ? ra : rb) + rm <= mn) {
                     FP_EMIT(t, t1, 1);
-                } else if (zlo > mx) {
+                } else if ((ra < rb ? ra : rb) - rm > mx) {
                     FP_EMIT(t, t1, 0);
                 } else {
                     L--;
@@ -380,7 +417,13 @@ FP_FN fp_real fp_shafts_sun(FP_CONSTANT const fp_real *fp, FP_CONSTANT const int
             iy = iy < 0 ? 0 : iy > H - 1 ? H - 1 : iy;
             ix = ix < 0 ? 0 : ix > W - 1 ? W - 1 : ix;
             t = t1;
-            L = L < NL ? L + 1 : NL;
+            /* Up a level only into a parent block entered at its start
+             * (the one face crossed is also the parent's): a parent
+             * entered halfway holds the stretch behind, and its test
+             * fails more often than the block beside. */
+            int xf = tX <= tY, nb = xf ? ix >> L : iy >> L;
+            if (L < NL && (nb & 1) == ((xf ? dU : dV) > 0 ? 0 : 1))
+                L++;
         }
         /* Left the map (or the guard ran out): lit on from there. */
         if (t < mb)
