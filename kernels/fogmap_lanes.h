@@ -204,7 +204,8 @@ FP_LN_FN float16 fp_fogmap_od_lanes(__constant const float *fp, __constant const
 /* The view rays of pixels (x, y) (fp_view_ray's and fp_view_origin_at's,
  * a perspective camera): origins *ox, *oy, *oz (the camera, or the rays'
  * points on the clip plane), unit directions *dx, *dy, *dz and lengths
- * *len (infinite for the sky), on lanes. */
+ * *len (infinite for the sky), on lanes; integrate_height's rays too
+ * (kernels/integrate.cl: height_fog_lanes). */
 FP_LN_FN void fp_view_ray_lanes(__constant const float *view, float16 x, float16 y,
                                 float16 depth, float16 *ox, float16 *oy, float16 *oz,
                                 float16 *dx, float16 *dy, float16 *dz, float16 *len)
@@ -213,9 +214,9 @@ FP_LN_FN void fp_view_ray_lanes(__constant const float *view, float16 x, float16
     __constant const float *m = view + FP_VIEW_M;
     float16 nx = (x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
     float16 ny = (y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
-    float16 cw = h[6] * nx + h[7] * ny + h[8];
-    float16 cx = (h[0] * nx + h[1] * ny + h[2]) / cw;
-    float16 cy = (h[3] * nx + h[4] * ny + h[5]) / cw;
+    float16 inv_cw = 1.0f / (h[6] * nx + h[7] * ny + h[8]);
+    float16 cx = (h[0] * nx + h[1] * ny + h[2]) * inv_cw;
+    float16 cy = (h[3] * nx + h[4] * ny + h[5]) * inv_cw;
     float16 ddx = m[0] * cx + m[1] * cy + m[2];
     float16 ddy = m[3] * cx + m[4] * cy + m[5];
     float16 ddz = m[6] * cx + m[7] * cy + m[8];
@@ -244,9 +245,10 @@ FP_LN_FN void fp_view_ray_lanes(__constant const float *view, float16 x, float16
         *oy += clip * ddy;
         *oz += clip * ddz;
     }
-    *dx = ddx / l;
-    *dy = ddy / l;
-    *dz = ddz / l;
+    float16 inv_l = 1.0f / l;
+    *dx = ddx * inv_l;
+    *dy = ddy * inv_l;
+    *dz = ddz * inv_l;
 }
 
 /* fp_fog_od with a fogmap on the lanes: the haze (closed form) and the

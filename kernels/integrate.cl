@@ -50,36 +50,9 @@ inline __attribute__((always_inline)) float16
 height_fog_lanes(__constant const float *restrict view, __constant const float *restrict fp,
                  float16 x, float16 y, float16 depth)
 {
-    __constant const float *h = view + FP_VIEW_H;
-    __constant const float *m = view + FP_VIEW_M;
-    float16 nx = (x + view[FP_VIEW_NDC_OFFSET]) * view[FP_VIEW_NDC_SCALE];
-    float16 ny = (y + view[FP_VIEW_NDC_OFFSET + 1]) * view[FP_VIEW_NDC_SCALE + 1];
-    float16 cw = h[6] * nx + h[7] * ny + h[8];
-    float16 inv_cw = 1.0f / cw;
-    float16 cx = (h[0] * nx + h[1] * ny + h[2]) * inv_cw;
-    float16 cy = (h[3] * nx + h[4] * ny + h[5]) * inv_cw;
-    float16 dx = m[0] * cx + m[1] * cy + m[2];
-    float16 dy = m[3] * cx + m[4] * cy + m[5];
-    float16 dz = m[6] * cx + m[7] * cy + m[8];
-    float16 l = sqrt(dx * dx + dy * dy + dz * dz);
-    /* fp_is_sky and the depth kinds (planar z, radial, inverse 1/z; the
-     * kind is the frame's, the same for every lane). */
-    int kind = (int)view[FP_VIEW_DEPTH_KIND];
-    float16 z = depth, scale = depth;
-    int16 sky = isnan(depth) | (depth < 0.0f);
-    if (kind == FP_DEPTH_INVERSE) {
-        z = 1.0f / depth;
-        scale = z;
-        sky |= depth == 0.0f;
-    } else if (kind == FP_DEPTH_RADIAL) {
-        scale = depth / sqrt(cx * cx + cy * cy + 1.0f);
-    }
-    sky |= isinf(z) | (z >= 1e10f) | (z >= view[FP_VIEW_FAR]);
-    float16 hit = l * scale;
-    float16 len = sky ? (float16)INFINITY : hit;
-    float16 inv_l = 1.0f / l;
-    float16 od = fp_fog_od_nomap_bf(fp, view[0], view[1], view[2], dx * inv_l, dy * inv_l,
-                                    dz * inv_l, len);
+    float16 ox, oy, oz, dx, dy, dz, len;
+    fp_view_ray_lanes(view, x, y, depth, &ox, &oy, &oz, &dx, &dy, &dz, &len);
+    float16 od = fp_fog_od_nomap_bf(fp, view[0], view[1], view[2], dx, dy, dz, len);
     return exp(-od);
 }
 
@@ -221,6 +194,21 @@ __kernel void integrate_height_over(__global const float *restrict depth,
     }
 }
 
+/* The listed pixels k0 .. k0 + n - 1 as lanes: their x, y and depth
+ * (lanes past n repeat the last listed pixel, not stored). */
+inline void list_lanes(__global const float *restrict depth, int width,
+                       __global const int *restrict pix, int k0, int n, float *lx, float *ly,
+                       float *ld)
+{
+    for (int k = 0; k < FP_SIMD; k++) {
+        int p = pix[k0 + min(k, n - 1)];
+        int y = p / width;
+        lx[k] = (float)(p - y * width);
+        ly[k] = (float)y;
+        ld[k] = depth[p];
+    }
+}
+
 /* The pixels pix[0 .. npix) (indices y * width + x), results in list
  * order, 16 per work-item. */
 __kernel void integrate_height_list(__global const float *restrict depth,
@@ -237,13 +225,7 @@ __kernel void integrate_height_list(__global const float *restrict depth,
         return;
     int n = min(FP_SIMD, npix - k0);
     float lx[16], ly[16], ld[16];
-    for (int k = 0; k < FP_SIMD; k++) {
-        int p = pix[k0 + min(k, n - 1)];
-        int y = p / width;
-        lx[k] = (float)(p - y * width);
-        ly[k] = (float)y;
-        ld[k] = depth[p];
-    }
+    list_lanes(depth, width, pix, k0, n, lx, ly, ld);
     float16 t = height_fog_lanes(view, fp, vload16(0, lx), vload16(0, ly), vload16(0, ld));
     height_fog_store(fog_out + 4 * (size_t)k0, n, t, fog_color);
 }
@@ -293,13 +275,7 @@ __kernel void integrate_fogmap_list(__global const float *restrict depth,
         return;
     int n = min(FP_SIMD, npix - k0);
     float lx[16], ly[16], ld[16];
-    for (int k = 0; k < FP_SIMD; k++) {
-        int p = pix[k0 + min(k, n - 1)];
-        int y = p / width;
-        lx[k] = (float)(p - y * width);
-        ly[k] = (float)y;
-        ld[k] = depth[p];
-    }
+    list_lanes(depth, width, pix, k0, n, lx, ly, ld);
     float16 od = fp_fog_od_lanes(view, fp, lvi, lvf, coef, vload16(0, lx), vload16(0, ly),
                                  vload16(0, ld));
     height_fog_store(fog_out + 4 * (size_t)k0, n, exp(-od), fog_color);
