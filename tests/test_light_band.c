@@ -35,28 +35,7 @@
 #include "scatter_core.h"
 #include "scatter_lanes.h"
 
-typedef struct rig_t {
-    fp_params_t p;
-    fp_integrate_data_t fog;
-    fp_scatter_data_t sd;
-} rig_t;
-
-static void rig_open(rig_t *r, const char *const *opts)
-{
-    memset(r, 0, sizeof *r);
-    fp_options_defaults(&r->p);
-    for (int i = 0; opts[i]; i += 2)
-        if (fp_options_apply(&r->p, opts[i], opts[i + 1], "test"))
-            fail_msg("option --%s %s refused", opts[i], opts[i + 1]);
-    assert_int_equal(fp_integrate_commit(&r->p, &r->fog), FP_OK);
-    assert_int_equal(fp_scatter_commit(&r->p, &r->sd), FP_OK);
-}
-
-static void rig_close(rig_t *r)
-{
-    fp_scatter_release(&r->sd);
-    fp_options_free(&r->p);
-}
+#include "light_rig.h"
 
 /* A random direction's dy: rising, falling, level or nearly so. */
 static double rand_dy(void)

@@ -150,31 +150,13 @@ static void test_slab_monte_carlo(void **state)
     }
 }
 
-/* Parameters committed from option pairs. */
-typedef struct rig_t {
-    fp_params_t p;
-    fp_integrate_data_t fog;
-    fp_scatter_data_t sd;
-} rig_t;
+#include "light_rig.h"
 
-static int rig_open(rig_t *r, const char *const *opts)
+/* rig_open, then the frame's multiple-scattering tables. */
+static int rig_open_ms(rig_t *r, const char *const *opts)
 {
-    memset(r, 0, sizeof *r);
-    fp_options_defaults(&r->p);
-    for (int i = 0; opts[i]; i += 2) {
-        int rc = fp_options_apply(&r->p, opts[i], opts[i + 1], "test");
-        if (rc)
-            return rc;
-    }
-    assert_int_equal(fp_integrate_commit(&r->p, &r->fog), FP_OK);
-    assert_int_equal(fp_scatter_commit(&r->p, &r->sd), FP_OK);
+    rig_open(r, opts);
     return fp_ms_frame(&r->p, r->sd.lt, r->fog.fp, NULL);
-}
-
-static void rig_close(rig_t *r)
-{
-    fp_scatter_release(&r->sd);
-    fp_options_free(&r->p);
 }
 
 static double ray(const rig_t *r, const double o[3], const double d[3], double len, double S[3])
@@ -202,8 +184,8 @@ static void test_ray_integral(void **state)
     on[n + 3] = off[n + 3] = "0,0,0";
     on[n + 4] = off[n + 4] = NULL;
     rig_t a, b;
-    assert_int_equal(rig_open(&a, on), FP_OK);
-    assert_int_equal(rig_open(&b, off), FP_OK);
+    assert_int_equal(rig_open_ms(&a, on), FP_OK);
+    assert_int_equal(rig_open_ms(&b, off), FP_OK);
     assert_true(a.sd.lt[FP_LT_MS_ON] == 1 && b.sd.lt[FP_LT_MS_ON] == 0);
     const double *lt = a.sd.lt, *fp = a.fog.fp;
     /* Rays: level, down to the ground, up to the sky, grazing. */
@@ -270,7 +252,7 @@ static void test_box_sides(void **state)
                                         "-10,0,-10,10,3,10", "sun", "0,0.31,-1",
                                         "fog-color", "auto", NULL };
     rig_t r;
-    assert_int_equal(rig_open(&r, opts), FP_OK);
+    assert_int_equal(rig_open_ms(&r, opts), FP_OK);
     const double *lt = r.sd.lt;
     assert_true(lt[FP_LT_MS_ON] == 1 && lt[FP_LT_MS_GON] == 1);
     double vc = fp_ms_vis(r.fog.fp, lt, 0, 1, 0), ve = fp_ms_vis(r.fog.fp, lt, 9.9, 1, 0);
@@ -286,14 +268,14 @@ static void test_fog_color_auto(void **state)
     static const char *const a[] = { "density", "0.05", "height", "0,3", "sun", "0,0.5,-1",
                                      NULL };
     rig_t r;
-    assert_int_equal(rig_open(&r, a), FP_OK);
+    assert_int_equal(rig_open_ms(&r, a), FP_OK);
     assert_true(r.sd.lt[FP_LT_MS_ON] == 1);
     assert_true(r.sd.lt[FP_LT_AMB] == 0 && r.sd.lt[FP_LT_AMB + 2] == 0);
     rig_close(&r);
     /* A typed fog color: the old model (off, the color as typed). */
     static const char *const b[] = { "density", "0.05", "height", "0,3", "sun", "0,0.5,-1",
                                      "fog-color", "0.1,0.2,0.3", NULL };
-    assert_int_equal(rig_open(&r, b), FP_OK);
+    assert_int_equal(rig_open_ms(&r, b), FP_OK);
     assert_true(r.sd.lt[FP_LT_MS_ON] == 0);
     assert_true(fabs(r.sd.lt[FP_LT_AMB + 1] - 0.2) < 1e-12);
     rig_close(&r);
@@ -301,7 +283,7 @@ static void test_fog_color_auto(void **state)
     static const char *const c[] = { "density", "0.05", "height", "0,3", "sun", "0,0.5,-1",
                                      "sun-color", "1,0.5,0.25", "fog-color", "auto",
                                      "multiple-scattering", "off", NULL };
-    assert_int_equal(rig_open(&r, c), FP_OK);
+    assert_int_equal(rig_open_ms(&r, c), FP_OK);
     double amb = r.sd.lt[FP_LT_AMB];
     print_message("--fog-color auto, --multiple-scattering off: ambient %.5f per unit sun\n", amb);
     assert_true(r.sd.lt[FP_LT_MS_ON] == 0 && amb > 1e-3 && amb < FP_INV_4PI);
@@ -309,7 +291,7 @@ static void test_fog_color_auto(void **state)
     rig_close(&r);
     /* No sun: the old constant. */
     static const char *const d[] = { "density", "0.05", NULL };
-    assert_int_equal(rig_open(&r, d), FP_OK);
+    assert_int_equal(rig_open_ms(&r, d), FP_OK);
     assert_true(fabs(r.sd.lt[FP_LT_AMB] - 0.7) < 1e-12 && r.fog.fog_color[2] == 0.8);
     rig_close(&r);
     /* Parsing. */
