@@ -43,17 +43,7 @@ FP_FN int fp_ls_cells(FP_CONSTANT const fp_real *ndc, const fp_real *nt, const f
 {
     fp_real pt[16] = { t0, t1, 0 }, ps[16] = { 1, 1, 0 };
     int n = 3;
-    for (int ax = 0; ax < 2 && n > 0; ax++) {
-        fp_real sc = ndc[ax], off = ndc[2 + ax];
-        fp_real a = ((ax ? j0 : i0) - (fp_real)0.5 + off) * sc;
-        fp_real b = ((ax ? j1 : i1) - (fp_real)0.5 + off) * sc;
-        fp_real lo = fmin(a, b), hi = fmax(a, b);
-        n = fp_ss_clip(pt, ps, n, nt[ax] - lo * nt[2], ns[ax] - lo * ns[2], nc[ax] - lo * nc[2]);
-        n = fp_ss_clip(pt, ps, n, hi * nt[2] - nt[ax], hi * ns[2] - ns[ax], hi * nc[2] - nc[ax]);
-    }
-    n = fp_ss_clip(pt, ps, n, nt[2], ns[2], nc[2]);
-    n = fp_ss_clip(pt, ps, n, D[2], W[2], C0[2] - zlo);
-    n = fp_ss_clip(pt, ps, n, -D[2], -W[2], zhi - C0[2]);
+    n = fp_ss_clip_block(ndc, nt, ns, nc, D, W, C0, i0, i1, j0, j1, zlo, zhi, pt, ps, n);
     if (n < 3)
         return 0;
     fp_real lo = FP_INF, hi = -FP_INF;

@@ -256,6 +256,31 @@ FP_FN int fp_ss_clip(fp_real *pt, fp_real *ps, int n, fp_real A, fp_real B, fp_r
     return m;
 }
 
+/* The polygon (pt, ps) of n vertices in the plane X = C0 + t D + s L
+ * (camera space; nt, ns, nc: the NDC rows of D, L, C0, fp_ss_ndc) clipped
+ * to what pixels [i0, i1) x [j0, j1) of the depth buffer (its pixel
+ * mapping ndc, FP_LT_SS_NDC) see with camera z in (zlo, zhi), in front of
+ * the camera: its vertices left, in place.  The sun's walk clips a
+ * rectangle of (t, s), a lamp's a triangle (lamp_shadow_core.h). */
+FP_FN int fp_ss_clip_block(FP_CONSTANT const fp_real *ndc, const fp_real *nt, const fp_real *ns,
+                           const fp_real *nc, const fp_real *D, const fp_real *L,
+                           const fp_real *C0, int i0, int i1, int j0, int j1, fp_real zlo,
+                           fp_real zhi, fp_real *pt, fp_real *ps, int n)
+{
+    for (int ax = 0; ax < 2 && n > 0; ax++) {
+        fp_real sc = ndc[ax], off = ndc[2 + ax];
+        fp_real a = ((ax ? j0 : i0) - (fp_real)0.5 + off) * sc;
+        fp_real b = ((ax ? j1 : i1) - (fp_real)0.5 + off) * sc;
+        fp_real lo = fmin(a, b), hi = fmax(a, b);
+        /* lo <= N_ax / N_3 <= hi, N_3 > 0 */
+        n = fp_ss_clip(pt, ps, n, nt[ax] - lo * nt[2], ns[ax] - lo * ns[2], nc[ax] - lo * nc[2]);
+        n = fp_ss_clip(pt, ps, n, hi * nt[2] - nt[ax], hi * ns[2] - ns[ax], hi * nc[2] - nc[ax]);
+    }
+    n = fp_ss_clip(pt, ps, n, nt[2], ns[2], nc[2]);
+    n = fp_ss_clip(pt, ps, n, D[2], L[2], C0[2] - zlo);
+    return fp_ss_clip(pt, ps, n, -D[2], -L[2], zhi - C0[2]);
+}
+
 /* The t-interval of (t, s) in [t0, t1] x [0, smax] shadowed through the
  * pixels [i0, i1) x [j0, j1) with camera z in (zlo, zhi): X = C0 + t D +
  * s L in camera space, nt, ns, nc their NDC rows (fp_ss_ndc), ndc the
@@ -270,18 +295,7 @@ FP_FN int fp_ss_cells(FP_CONSTANT const fp_real *ndc, const fp_real *nt, const f
 {
     fp_real pt[16] = { t0, t1, t1, t0 }, ps[16] = { 0, 0, smax, smax };
     int n = 4;
-    for (int ax = 0; ax < 2 && n > 0; ax++) {
-        fp_real sc = ndc[ax], off = ndc[2 + ax];
-        fp_real a = ((ax ? j0 : i0) - (fp_real)0.5 + off) * sc;
-        fp_real b = ((ax ? j1 : i1) - (fp_real)0.5 + off) * sc;
-        fp_real lo = fmin(a, b), hi = fmax(a, b);
-        /* lo <= N_ax / N_3 <= hi, N_3 > 0 */
-        n = fp_ss_clip(pt, ps, n, nt[ax] - lo * nt[2], ns[ax] - lo * ns[2], nc[ax] - lo * nc[2]);
-        n = fp_ss_clip(pt, ps, n, hi * nt[2] - nt[ax], hi * ns[2] - ns[ax], hi * nc[2] - nc[ax]);
-    }
-    n = fp_ss_clip(pt, ps, n, nt[2], ns[2], nc[2]);
-    n = fp_ss_clip(pt, ps, n, D[2], L[2], C0[2] - zlo);
-    n = fp_ss_clip(pt, ps, n, -D[2], -L[2], zhi - C0[2]);
+    n = fp_ss_clip_block(ndc, nt, ns, nc, D, L, C0, i0, i1, j0, j1, zlo, zhi, pt, ps, n);
     if (n < 3)
         return 0;
     /* A point (t0 = t1): shadowed when some s is left. */
